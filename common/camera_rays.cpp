@@ -1,0 +1,1 @@
+#include "common/camera_rays.h"

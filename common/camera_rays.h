@@ -1,0 +1,50 @@
+#pragma once
+// Primary rays of a scene camera: the view frame and the mapping from continuous raster
+// coordinates (x right, y down, pixel (i, j) covering [i, i+1) × [j, j+1)) to rays.
+
+#include "common/ray.h"
+#include "common/scene.h"
+
+#include <iosfwd>
+
+namespace mrt {
+
+class CameraRays {
+public:
+    /// The camera renders a width × height image (which may differ from camera.width/height:
+    /// the field of view stays vertical, the aspect follows the image).
+    CameraRays(const Camera& camera, int width, int height);
+
+    /// Pinhole ray through raster position (x, y); unit direction.
+    Ray pinhole_ray(float raster_x, float raster_y) const;
+
+    /// Thin-lens ray through raster position (x, y) with lens sample (u, v) in [0,1)²
+    /// (concentric mapping onto the aperture disc); equals pinhole_ray when the aperture is 0.
+    Ray lens_ray(float raster_x, float raster_y, float lens_u, float lens_v) const;
+
+    const Vec3f& forward() const { return m_forward; }
+    const Vec3f& right() const { return m_right; }
+    const Vec3f& up() const { return m_up; }
+    /// World-space vector between the centres of horizontally / vertically adjacent pixels
+    /// on the image plane at distance 1 along forward().
+    const Vec3f& pixel_step_x() const { return m_step_x; }
+    const Vec3f& pixel_step_y() const { return m_step_y; }
+    int width() const { return m_width; }
+    int height() const { return m_height; }
+    const Camera& camera() const { return m_camera; }
+
+private:
+    Camera m_camera;
+    int m_width;
+    int m_height;
+    Vec3f m_forward, m_right, m_up;
+    Vec3f m_top_left;  ///< Direction to raster (0, 0) at distance 1.
+    Vec3f m_step_x, m_step_y;
+    float m_focal_distance;
+};
+
+/// Concentric mapping of [0,1)² onto the unit disc (Shirley & Chiu 1997): area-preserving and
+/// low distortion, so stratified lens samples stay stratified.
+Vec2f concentric_disc(float u, float v);
+
+}  // namespace mrt

@@ -1,0 +1,1 @@
+#include "common/data_path.h"

@@ -1,0 +1,1 @@
+#include "common/mesh_io.h"

@@ -1,0 +1,24 @@
+#pragma once
+// Procedural geometry for scenes the project generates itself.
+
+#include "common/mesh.h"
+
+#include <cstdint>
+
+namespace mrt {
+
+/// UV sphere centred at the origin: `segments` around the equator (≥ 3) and `rings` from pole to
+/// pole (≥ 2); exact unit-sphere normals scaled by nothing; UVs (longitude, latitude) in [0,1].
+Mesh make_sphere(float radius, int segments, int rings, std::uint32_t material);
+
+/// Unit-normal quad in the XZ plane centred at the origin, size_x × size_z, facing +Y, UVs [0,1]².
+Mesh make_quad(float size_x, float size_z, std::uint32_t material);
+
+/// Checkerboard made of geometry in the XZ plane centred at the origin, facing +Y:
+/// tiles_x × tiles_z square-ish tiles, each two triangles, materials alternating between
+/// `material_a` (tile (0,0)) and `material_b`. UVs span [0,1]² over the whole board. Shared tile
+/// corners are shared vertices (watertight).
+Mesh make_checkerboard(float size_x, float size_z, int tiles_x, int tiles_z,
+                       std::uint32_t material_a, std::uint32_t material_b);
+
+}  // namespace mrt

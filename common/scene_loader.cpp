@@ -1,0 +1,1 @@
+#include "common/scene_loader.h"

@@ -1,0 +1,27 @@
+#pragma once
+// The one scene loader: JSON scene file → mrt::Scene. Strict: unknown keys, wrong types and
+// out-of-range values are errors naming the file, the JSON pointer of the value, what was found
+// and what was expected. See docs/scene-format.md.
+
+#include "common/scene.h"
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+namespace mrt {
+
+struct SceneLoadOptions {
+    /// Receives warnings (e.g. degenerate triangles dropped); default prints nothing.
+    std::function<void(const std::string&)> warn;
+};
+
+/// Loads a scene file. Throws mrt::Error on any problem.
+Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& options = {});
+
+/// Parses scene JSON text as if it were the file `file` (paths resolve relative to its
+/// directory). Used by tests and by tools that embed scenes.
+Scene parse_scene(const std::string& json_text, const std::filesystem::path& file,
+                  const SceneLoadOptions& options = {});
+
+}  // namespace mrt

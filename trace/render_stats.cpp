@@ -1,0 +1,1 @@
+#include "trace/render_stats.h"

@@ -1,0 +1,1 @@
+#include "trace/scene_bvh.h"

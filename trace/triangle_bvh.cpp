@@ -1,0 +1,1 @@
+#include "trace/triangle_bvh.h"
