@@ -49,6 +49,10 @@ private:
 /// Throws mrt::Error naming the file.
 void write_image(const std::filesystem::path& file, const Image& image);
 
+/// Checks, before any work is done, that write_image could write `file`: a supported extension
+/// and an existing, writable directory. Throws the mrt::Error write_image would.
+void check_image_output(const std::filesystem::path& file);
+
 /// Reads any image OpenImageIO can read into linear RGB (sRGB 8-bit files are linearised;
 /// grey images are expanded; alpha is dropped). Throws mrt::Error naming the file.
 Image read_image(const std::filesystem::path& file);

@@ -26,7 +26,7 @@ struct Mesh {
     Eigen::AlignedBox3f bounds() const;
 };
 
-/// Replaces the normals by area- and angle-weighted averages of the incident face normals
+/// Replaces the normals by angle-weighted averages of the incident face normals
 /// (vertices of no non-degenerate face get (0, 0, 1)).
 void compute_vertex_normals(Mesh& mesh);
 

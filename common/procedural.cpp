@@ -1,1 +1,183 @@
 #include "common/procedural.h"
+
+#include "common/error.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace mrt {
+
+namespace {
+
+// Vertex indices are 32-bit; keep well clear of the limit so index arithmetic cannot wrap.
+constexpr long long kMaxVertices = 1LL << 30;
+
+void require_positive_size(const char* recipe, const char* what, float value) {
+    if (!std::isfinite(value) || !(value > 0.0f)) {
+        throw Error(
+            fmt::format("{}: {} must be a positive finite number (got {})", recipe, what, value));
+    }
+}
+
+void require_vertex_budget(const char* recipe, long long vertices) {
+    if (vertices > kMaxVertices) {
+        throw Error(fmt::format("{}: the requested resolution needs {} vertices (at most {})",
+                                recipe, vertices, kMaxVertices));
+    }
+}
+
+std::uint32_t index(long long i) {
+    return static_cast<std::uint32_t>(i);
+}
+
+}  // namespace
+
+Mesh make_sphere(float radius, int segments, int rings, std::uint32_t material) {
+    require_positive_size("sphere", "radius", radius);
+    if (segments < 3) {
+        throw Error(fmt::format("sphere: segments must be at least 3 (got {})", segments));
+    }
+    if (rings < 2) {
+        throw Error(fmt::format("sphere: rings must be at least 2 (got {})", rings));
+    }
+    const long long seg = segments;
+    const double seg_d = segments;
+    const long long interior_rows = rings - 1;
+    const long long vertex_count = 2 * seg + interior_rows * (seg + 1);
+    require_vertex_budget("sphere", vertex_count);
+
+    Mesh mesh;
+    mesh.positions.reserve(static_cast<std::size_t>(vertex_count));
+    mesh.normals.reserve(static_cast<std::size_t>(vertex_count));
+    mesh.uvs.reserve(static_cast<std::size_t>(vertex_count));
+    mesh.triangles.reserve(static_cast<std::size_t>(2 * seg * interior_rows));
+    mesh.name = fmt::format("sphere(radius={}, segments={}, rings={})", radius, segments, rings);
+    const auto add_vertex = [&mesh, radius](const Vec3d& unit, double u, double v) {
+        const Vec3f n = unit.normalized().cast<float>();
+        mesh.positions.push_back(radius * n);
+        mesh.normals.push_back(n);
+        mesh.uvs.emplace_back(static_cast<float>(u), static_cast<float>(v));
+    };
+
+    // Each pole gets one vertex per segment, with u at the segment's middle: a single shared
+    // pole vertex would need one u for all directions, and a full row of coincident pole
+    // vertices would make half of the cap's triangles degenerate.
+    const long long north = 0;
+    for (long long i = 0; i < seg; ++i) {
+        add_vertex(Vec3d(0.0, 1.0, 0.0), (static_cast<double>(i) + 0.5) / seg_d, 1.0);
+    }
+    // Interior rows run from north to south; the last column repeats the first one's position
+    // (computed from the same angle so it is bitwise identical) with u = 1, forming the seam.
+    const long long first_row = seg;
+    for (long long j = 1; j < rings; ++j) {
+        const double theta = std::numbers::pi * static_cast<double>(j) / rings;
+        for (long long i = 0; i <= seg; ++i) {
+            const double phi = 2.0 * std::numbers::pi * static_cast<double>(i % seg) / seg_d;
+            // Longitude grows eastwards seen from outside, so (dP/du, dP/dv, n) is right-handed
+            // and textures are not mirrored.
+            const Vec3d unit(-std::sin(theta) * std::cos(phi), std::cos(theta),
+                             std::sin(theta) * std::sin(phi));
+            add_vertex(unit, static_cast<double>(i) / seg_d, 1.0 - static_cast<double>(j) / rings);
+        }
+    }
+    const long long south = first_row + interior_rows * (seg + 1);
+    for (long long i = 0; i < seg; ++i) {
+        add_vertex(Vec3d(0.0, -1.0, 0.0), (static_cast<double>(i) + 0.5) / seg_d, 0.0);
+    }
+
+    const auto row_vertex = [&](long long row, long long column) {
+        return first_row + (row - 1) * (seg + 1) + column;
+    };
+    for (long long i = 0; i < seg; ++i) {
+        mesh.triangles.push_back(
+            {index(north + i), index(row_vertex(1, i)), index(row_vertex(1, i + 1))});
+    }
+    for (long long j = 1; j + 1 < rings; ++j) {
+        for (long long i = 0; i < seg; ++i) {
+            const std::uint32_t top_left = index(row_vertex(j, i));
+            const std::uint32_t top_right = index(row_vertex(j, i + 1));
+            const std::uint32_t bottom_left = index(row_vertex(j + 1, i));
+            const std::uint32_t bottom_right = index(row_vertex(j + 1, i + 1));
+            mesh.triangles.push_back({top_left, bottom_left, bottom_right});
+            mesh.triangles.push_back({top_left, bottom_right, top_right});
+        }
+    }
+    for (long long i = 0; i < seg; ++i) {
+        mesh.triangles.push_back({index(row_vertex(rings - 1, i)), index(south + i),
+                                  index(row_vertex(rings - 1, i + 1))});
+    }
+    mesh.materials.assign(mesh.triangles.size(), material);
+    return mesh;
+}
+
+Mesh make_quad(float size_x, float size_z, std::uint32_t material) {
+    require_positive_size("quad", "size_x", size_x);
+    require_positive_size("quad", "size_z", size_z);
+    Mesh mesh;
+    mesh.name = fmt::format("quad({} x {})", size_x, size_z);
+    const float hx = 0.5f * size_x;
+    const float hz = 0.5f * size_z;
+    // v grows towards −z so that (dP/du, dP/dv, +Y) is right-handed: seen from above the
+    // texture reads unmirrored with −z as "up".
+    mesh.positions = {Vec3f(-hx, 0.0f, -hz), Vec3f(-hx, 0.0f, hz), Vec3f(hx, 0.0f, hz),
+                      Vec3f(hx, 0.0f, -hz)};
+    mesh.uvs = {Vec2f(0.0f, 1.0f), Vec2f(0.0f, 0.0f), Vec2f(1.0f, 0.0f), Vec2f(1.0f, 1.0f)};
+    mesh.normals.assign(4, Vec3f(0.0f, 1.0f, 0.0f));
+    mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+    mesh.materials.assign(2, material);
+    return mesh;
+}
+
+Mesh make_checkerboard(float size_x, float size_z, int tiles_x, int tiles_z,
+                       std::uint32_t material_a, std::uint32_t material_b) {
+    require_positive_size("checkerboard", "size_x", size_x);
+    require_positive_size("checkerboard", "size_z", size_z);
+    if (tiles_x < 1 || tiles_z < 1) {
+        throw Error(fmt::format("checkerboard: tile counts must be at least 1 (got {} x {})",
+                                tiles_x, tiles_z));
+    }
+    const long long nx = tiles_x;
+    const long long nz = tiles_z;
+    require_vertex_budget("checkerboard", (nx + 1) * (nz + 1));
+
+    Mesh mesh;
+    mesh.name =
+        fmt::format("checkerboard({} x {}, {} x {} tiles)", size_x, size_z, tiles_x, tiles_z);
+    // Coordinates come from the integer grid position so that shared corners are exact and the
+    // outer edges land exactly on ±size/2.
+    const auto coordinate = [](float size, long long i, long long n) {
+        return static_cast<float>(static_cast<double>(size) *
+                                  (static_cast<double>(i) / static_cast<double>(n) - 0.5));
+    };
+    for (long long iz = 0; iz <= nz; ++iz) {
+        for (long long ix = 0; ix <= nx; ++ix) {
+            mesh.positions.emplace_back(coordinate(size_x, ix, nx), 0.0f,
+                                        coordinate(size_z, iz, nz));
+            // Same orientation as make_quad: v grows towards −z.
+            mesh.uvs.emplace_back(
+                static_cast<float>(static_cast<double>(ix) / static_cast<double>(nx)),
+                static_cast<float>(1.0 - static_cast<double>(iz) / static_cast<double>(nz)));
+        }
+    }
+    mesh.normals.assign(mesh.positions.size(), Vec3f(0.0f, 1.0f, 0.0f));
+
+    const auto vertex = [nx](long long ix, long long iz) { return index(iz * (nx + 1) + ix); };
+    for (long long iz = 0; iz < nz; ++iz) {
+        for (long long ix = 0; ix < nx; ++ix) {
+            const std::uint32_t min_min = vertex(ix, iz);
+            const std::uint32_t min_max = vertex(ix, iz + 1);
+            const std::uint32_t max_max = vertex(ix + 1, iz + 1);
+            const std::uint32_t max_min = vertex(ix + 1, iz);
+            const std::uint32_t material = (ix + iz) % 2 == 0 ? material_a : material_b;
+            mesh.triangles.push_back({min_min, min_max, max_max});
+            mesh.triangles.push_back({min_min, max_max, max_min});
+            mesh.materials.push_back(material);
+            mesh.materials.push_back(material);
+        }
+    }
+    return mesh;
+}
+
+}  // namespace mrt

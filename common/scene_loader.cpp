@@ -1,1 +1,688 @@
 #include "common/scene_loader.h"
+
+#include "common/data_path.h"
+#include "common/error.h"
+#include "common/mesh_io.h"
+#include "common/procedural.h"
+#include "common/scene_json.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace mrt {
+
+namespace {
+
+constexpr int kMaxResolution = 65536;
+constexpr int kMaxBounces = 1000;
+constexpr int kMaxSegments = 65536;
+constexpr int kMaxTiles = 65536;
+constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
+constexpr float kDefaultVerticalFovDegrees = 45.0f;
+// Below this sine of the angle between up and the view direction the camera basis is undefined.
+constexpr double kMinUpViewSine = 1e-6;
+// Relative to the cube of the largest coefficient, a smaller 3×3 determinant counts as singular.
+constexpr double kMinRelativeDeterminant = 1e-12;
+
+// Composed in double so that rotations by right angles come out exact in single precision.
+using Affine3d = Eigen::Transform<double, 3, Eigen::Affine, Eigen::DontAlign>;
+
+/// A mesh file to load once every other value of the scene has been validated.
+struct PendingMeshFile {
+    std::uint32_t mesh = 0;  ///< Slot in Scene::meshes.
+    std::filesystem::path path;
+    std::uint32_t material = 0;
+    std::string pointer;  ///< Of the "file" value, for messages.
+};
+
+/// One {"instance": name} of a group, kept for the cycle check.
+struct GroupReference {
+    std::uint32_t group = 0;
+    std::string pointer;  ///< Of the "instance" value.
+};
+
+std::string join(const std::vector<std::string>& parts, std::string_view separator) {
+    std::string out;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+        out += (i == 0 ? "" : std::string(separator)) + parts[i];
+    }
+    return out;
+}
+
+std::string expected_names(const std::map<std::string, std::uint32_t>& names,
+                           std::string_view what) {
+    if (names.empty()) {
+        return fmt::format("no {} are defined", what);
+    }
+    std::vector<std::string> keys;
+    keys.reserve(names.size());
+    for (const auto& entry : names) {
+        keys.push_back(entry.first);
+    }
+    return "expected one of: " + join_names(std::move(keys));
+}
+
+/// Exactly one of two alternative keys (e.g. "intensity" or "power"); second = the first key.
+std::pair<JsonValue, bool> exactly_one_of(const JsonObject& object, std::string_view first,
+                                          std::string_view second) {
+    const auto a = object.optional(first);
+    const auto b = object.optional(second);
+    if (a && b) {
+        b->fail(fmt::format("found both \"{}\" and \"{}\", expected exactly one of them", first,
+                            second));
+    }
+    if (!a && !b) {
+        object.value().fail(
+            fmt::format("missing required key \"{}\" or \"{}\" (exactly one)", first, second));
+    }
+    return a ? std::pair{*a, true} : std::pair{*b, false};
+}
+
+Eigen::Matrix3d read_axis_angle(const JsonValue& value) {
+    const JsonObject rotation(value, {"axis", "degrees"});
+    const Eigen::Vector3d axis = rotation.required("axis").nonzero_vec3().cast<double>();
+    const double degrees = rotation.required("degrees").number();
+    return Eigen::AngleAxisd(degrees * kRadiansPerDegree, axis.normalized()).toRotationMatrix();
+}
+
+Eigen::Matrix3d read_rotation(const JsonValue& value) {
+    if (value.json().is_array()) {
+        Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+        for (const JsonValue& step : value.elements()) {
+            rotation = read_axis_angle(step) * rotation;
+        }
+        return rotation;
+    }
+    if (!value.json().is_object()) {
+        value.fail_expected(R"(an object {"axis": [x, y, z], "degrees": a} or an array of them)");
+    }
+    return read_axis_angle(value);
+}
+
+Eigen::Vector3d read_scale(const JsonValue& value) {
+    if (value.json().is_number()) {
+        return Eigen::Vector3d::Constant(value.nonzero_number());
+    }
+    if (!value.json().is_array() || value.json().size() != 3) {
+        value.fail_expected("a non-zero number or an array of 3 non-zero numbers");
+    }
+    const auto elements = value.elements();
+    return {elements[0].nonzero_number(), elements[1].nonzero_number(),
+            elements[2].nonzero_number()};
+}
+
+Affine3d read_matrix(const JsonValue& value) {
+    const std::vector<float> m = value.numbers(16, "an array of 16 numbers (4x4, row-major)");
+    Eigen::Matrix4d matrix;
+    for (int row = 0; row < 4; ++row) {
+        for (int column = 0; column < 4; ++column) {
+            matrix(row, column) = m[static_cast<std::size_t>(4 * row + column)];
+        }
+    }
+    if (matrix.row(3) != Eigen::RowVector4d(0.0, 0.0, 0.0, 1.0)) {
+        value.fail_expected("a last row of 0, 0, 0, 1 (an affine matrix)");
+    }
+    const Eigen::Matrix3d linear = matrix.topLeftCorner<3, 3>();
+    const double magnitude = linear.cwiseAbs().maxCoeff();
+    if (!(std::abs(linear.determinant()) >
+          kMinRelativeDeterminant * magnitude * magnitude * magnitude)) {
+        value.fail_expected("an invertible matrix");
+    }
+    Affine3d transform;
+    transform.matrix() = matrix;
+    return transform;
+}
+
+Affine3d read_transform_step(const JsonValue& value) {
+    const JsonObject step(value, {"matrix", "rotate", "scale", "translate"});
+    if (const auto matrix = step.optional("matrix")) {
+        for (const char* other : {"rotate", "scale", "translate"}) {
+            if (const auto conflicting = step.optional(other)) {
+                conflicting->fail(R"(cannot be combined with "matrix" (expected either "matrix" )"
+                                  R"(or any of "scale", "rotate", "translate"))");
+            }
+        }
+        return read_matrix(*matrix);
+    }
+    // Eigen's translate/rotate/scale multiply on the right: the result is T·R·S.
+    Affine3d transform = Affine3d::Identity();
+    if (const auto translate = step.optional("translate")) {
+        transform.translate(translate->vec3().cast<double>());
+    }
+    if (const auto rotate = step.optional("rotate")) {
+        transform.rotate(read_rotation(*rotate));
+    }
+    if (const auto scale = step.optional("scale")) {
+        transform.scale(read_scale(*scale));
+    }
+    return transform;
+}
+
+Affine3f read_transform(const JsonValue& value) {
+    Affine3d transform = Affine3d::Identity();
+    if (value.json().is_array()) {
+        for (const JsonValue& step : value.elements()) {
+            transform = read_transform_step(step) * transform;
+        }
+    } else if (value.json().is_object()) {
+        transform = read_transform_step(value);
+    } else {
+        value.fail_expected("a transform object or an array of them");
+    }
+    const Affine3f result = transform.cast<float>();
+    const float determinant = result.linear().determinant();
+    if (!all_finite(result.matrix()) || !std::isfinite(determinant) || determinant == 0.0f) {
+        value.fail(
+            "the composed transform is not invertible in single precision (expected an "
+            "invertible transform)");
+    }
+    return result;
+}
+
+class SceneBuilder {
+  public:
+    SceneBuilder(const std::filesystem::path& file, const SceneLoadOptions& options)
+        : m_file(file), m_directory(file.parent_path()), m_options(options) {}
+
+    Scene build(const Json& document) {
+        const JsonValue root(m_file, document, "");
+        const JsonObject top(root, {"ambient", "background", "camera", "groups", "lights",
+                                    "materials", "max_depth", "objects"});
+        m_scene.file = m_file;
+        read_camera(top.required("camera"));
+        if (const auto background = top.optional("background")) {
+            m_scene.background = background->colour();
+        }
+        if (const auto ambient = top.optional("ambient")) {
+            m_scene.ambient = ambient->colour();
+        }
+        if (const auto max_depth = top.optional("max_depth")) {
+            m_scene.max_depth = max_depth->integer(0, kMaxBounces);
+        }
+        if (const auto materials = top.optional("materials")) {
+            read_materials(*materials);
+        }
+        if (const auto lights = top.optional("lights")) {
+            read_lights(*lights);
+        }
+        read_groups(top.optional("groups"), top.required("objects"));
+        check_group_cycles();
+        load_mesh_files();
+        return std::move(m_scene);
+    }
+
+  private:
+    void read_camera(const JsonValue& value) {
+        const JsonObject camera(value, {"aperture_radius", "eye", "focal_distance", "fov",
+                                        "look_at", "resolution", "up"});
+        Camera& c = m_scene.camera;
+        c.eye = camera.required("eye").vec3();
+        const JsonValue look_at = camera.required("look_at");
+        c.look_at = look_at.vec3();
+        const Eigen::Vector3d view = c.look_at.cast<double>() - c.eye.cast<double>();
+        if (view.isZero(0.0)) {
+            look_at.fail_expected("a point different from \"eye\"");
+        }
+        const auto up = camera.optional("up");
+        c.up = up ? up->nonzero_vec3() : Vec3f(0.0f, 1.0f, 0.0f);
+        const double sine = view.normalized().cross(c.up.cast<double>().normalized()).norm();
+        if (!(sine > kMinUpViewSine)) {
+            if (up) {
+                up->fail_expected("a vector not parallel to the view direction (look_at - eye)");
+            }
+            value.fail(R"(the default "up" [0, 1, 0] is parallel to the view direction )"
+                       R"((look_at - eye); expected an explicit "up")");
+        }
+        const auto fov = camera.optional("fov");
+        c.vertical_fov = static_cast<float>(
+            (fov ? fov->number(NumberRange::open(0.0, 180.0)) : kDefaultVerticalFovDegrees) *
+            kRadiansPerDegree);
+        if (const auto resolution = camera.optional("resolution")) {
+            const std::string expected = "an array of 2 integers (width, height)";
+            const auto size = resolution->elements(expected);
+            if (size.size() != 2) {
+                resolution->fail_expected(expected);
+            }
+            c.width = size[0].integer(1, kMaxResolution);
+            c.height = size[1].integer(1, kMaxResolution);
+        }
+        if (const auto aperture = camera.optional("aperture_radius")) {
+            c.aperture_radius = aperture->number(NumberRange::at_least(0.0));
+        }
+        const auto focal_distance = camera.optional("focal_distance");
+        c.focal_distance = focal_distance ? focal_distance->number(NumberRange::above(0.0))
+                                          : static_cast<float>(view.norm());
+        if (!std::isfinite(c.focal_distance)) {
+            look_at.fail_expected("a point within single-precision range of \"eye\"");
+        }
+    }
+
+    void read_materials(const JsonValue& value) {
+        for (const auto& [name, material] : value.members("an object of named materials")) {
+            m_material_index.emplace(name, static_cast<std::uint32_t>(m_scene.materials.size()));
+            m_scene.materials.push_back(read_material(name, material));
+        }
+    }
+
+    Material read_material(const std::string& name, const JsonValue& value) {
+        const JsonObject object(value, {"diffuse", "ior", "phong_exponent", "reflectivity",
+                                        "roughness", "specular", "texture", "transparency"});
+        Material m;
+        m.name = name;
+        if (const auto diffuse = object.optional("diffuse")) {
+            m.diffuse = diffuse->colour();
+        }
+        if (const auto specular = object.optional("specular")) {
+            m.specular = specular->colour();
+        }
+        if (const auto exponent = object.optional("phong_exponent")) {
+            m.phong_exponent = exponent->number(NumberRange::at_least(0.0));
+        }
+        if (const auto reflectivity = object.optional("reflectivity")) {
+            m.reflectivity = reflectivity->number(NumberRange::closed(0.0, 1.0));
+        }
+        if (const auto transparency = object.optional("transparency")) {
+            m.transparency = transparency->number(NumberRange::closed(0.0, 1.0));
+        }
+        // Decimal fractions such as 0.7 + 0.3 may round to just above 1.
+        constexpr double kSumTolerance = 1e-6;
+        const double sum = static_cast<double>(m.reflectivity) + m.transparency;
+        if (sum > 1.0 + kSumTolerance) {
+            value.fail(fmt::format("reflectivity + transparency = {}, expected at most 1",
+                                   static_cast<float>(sum)));
+        }
+        if (const auto ior = object.optional("ior")) {
+            m.ior = ior->number(NumberRange::above(0.0));
+        }
+        if (const auto roughness = object.optional("roughness")) {
+            m.roughness = roughness->number(NumberRange::at_least(0.0));
+        }
+        if (const auto texture = object.optional("texture")) {
+            read_texture(*texture, m);
+        }
+        return m;
+    }
+
+    void read_texture(const JsonValue& value, Material& material) {
+        const JsonObject object(value, {"file", "srgb", "uv_offset", "uv_rotate", "uv_scale"});
+        const std::filesystem::path path = resolve(object.required("file"));
+        const auto srgb_value = object.optional("srgb");
+        const bool srgb = srgb_value ? srgb_value->boolean() : true;
+        Vec2f scale(1.0f, 1.0f);
+        if (const auto uv_scale = object.optional("uv_scale")) {
+            scale = uv_scale->vec2_or_number();
+            if (scale.x() == 0.0f || scale.y() == 0.0f) {
+                uv_scale->fail_expected("a non-zero number or an array of 2 non-zero numbers");
+            }
+        }
+        const auto uv_offset = object.optional("uv_offset");
+        const Vec2f offset = uv_offset ? uv_offset->vec2() : Vec2f(0.0f, 0.0f);
+        const auto uv_rotate = object.optional("uv_rotate");
+        const double degrees = uv_rotate ? uv_rotate->number() : 0.0;
+
+        // uv' = translate(offset) · rotate · scale(uv).
+        material.uv_transform = Affine2f::Identity();
+        material.uv_transform.translate(offset)
+            .rotate(Eigen::Rotation2Df(static_cast<float>(degrees * kRadiansPerDegree)))
+            .scale(scale);
+
+        const auto key = std::pair{path.string(), srgb};
+        auto it = m_texture_index.find(key);
+        if (it == m_texture_index.end()) {
+            it = m_texture_index.emplace(key, static_cast<int>(m_scene.textures.size())).first;
+            m_scene.textures.push_back(Texture{path, srgb});
+        }
+        material.texture = it->second;
+    }
+
+    void read_lights(const JsonValue& value) {
+        for (const JsonValue& light : value.elements("an array of lights")) {
+            const auto type = light.find("type");
+            if (!type) {
+                light.fail(R"(missing required key "type")");
+            }
+            if (type->choice({"ellipse", "point"}) == "point") {
+                m_scene.point_lights.push_back(read_point_light(
+                    JsonObject(light, {"intensity", "position", "power", "type"})));
+            } else {
+                m_scene.area_lights.push_back(read_ellipse_light(
+                    JsonObject(light, {"center", "power", "radiance", "semi_axis_u", "semi_axis_v",
+                                       "two_sided", "type"})));
+            }
+        }
+    }
+
+    static PointLight read_point_light(const JsonObject& object) {
+        PointLight light;
+        light.position = object.required("position").vec3();
+        const auto [value, is_intensity] = exactly_one_of(object, "intensity", "power");
+        const Rgb colour = value.colour();
+        // An isotropic source spreads its power over 4π steradians.
+        light.intensity = is_intensity ? colour : Rgb(colour / (4.0f * kPi));
+        return light;
+    }
+
+    static EllipticalAreaLight read_ellipse_light(const JsonObject& object) {
+        EllipticalAreaLight light;
+        light.center = object.required("center").vec3();
+        light.semi_axis_u = object.required("semi_axis_u").nonzero_vec3();
+        const JsonValue semi_axis_v = object.required("semi_axis_v");
+        light.semi_axis_v = semi_axis_v.nonzero_vec3();
+        const float area = light.area();
+        if (!(area > 0.0f) || !std::isfinite(area)) {
+            semi_axis_v.fail_expected("a vector not parallel to semi_axis_u (non-zero area)");
+        }
+        if (const auto two_sided = object.optional("two_sided")) {
+            light.two_sided = two_sided->boolean();
+        }
+        const auto [value, is_radiance] = exactly_one_of(object, "radiance", "power");
+        const Rgb colour = value.colour();
+        // A Lambertian emitter of radiance L sends π·L·area watts out of each emitting face.
+        const float faces = light.two_sided ? 2.0f : 1.0f;
+        light.radiance = is_radiance ? colour : Rgb(colour / (kPi * area * faces));
+        return light;
+    }
+
+    void read_groups(const std::optional<JsonValue>& groups, const JsonValue& objects) {
+        m_scene.root = 0;
+        m_scene.groups.push_back(Group{"world", {}});
+        std::vector<std::pair<std::string, JsonValue>> named;
+        if (groups) {
+            named = groups->members("an object of named groups");
+        }
+        // Names first: a group may instance groups defined after it.
+        for (const auto& entry : named) {
+            m_group_index.emplace(entry.first, static_cast<std::uint32_t>(m_scene.groups.size()));
+            m_scene.groups.push_back(Group{entry.first, {}});
+        }
+        m_group_references.resize(m_scene.groups.size());
+        for (std::size_t i = 0; i < named.size(); ++i) {
+            const JsonObject group(named[i].second, {"objects"});
+            read_group_objects(static_cast<std::uint32_t>(i + 1), group.required("objects"));
+        }
+        read_group_objects(m_scene.root, objects);
+    }
+
+    void read_group_objects(std::uint32_t group, const JsonValue& objects) {
+        for (const JsonValue& object : objects.elements("an array of objects")) {
+            Instance instance = read_object(group, object);
+            m_scene.groups[group].children.push_back(instance);
+        }
+    }
+
+    Instance read_object(std::uint32_t group, const JsonValue& value) {
+        Instance instance;
+        if (const auto name_value = value.find("instance")) {
+            const JsonObject object(value, {"instance", "transform"});
+            const std::string name = name_value->string();
+            const auto it = m_group_index.find(name);
+            if (it == m_group_index.end()) {
+                name_value->fail(fmt::format("unknown group \"{}\" ({})", name,
+                                             expected_names(m_group_index, "groups")));
+            }
+            instance.kind = Instance::Kind::Group;
+            instance.index = it->second;
+            m_group_references[group].push_back(GroupReference{it->second, name_value->pointer()});
+        } else {
+            const auto shape = value.find("shape");
+            if (!shape) {
+                value.fail(R"(missing required key "shape" (or "instance"))");
+            }
+            instance.kind = Instance::Kind::Mesh;
+            instance.index =
+                read_shape(shape->choice({"checkerboard", "mesh", "quad", "sphere"}), value);
+        }
+        if (const auto transform = value.find("transform")) {
+            instance.transform = read_transform(*transform);
+        }
+        return instance;
+    }
+
+    std::uint32_t read_shape(const std::string& shape, const JsonValue& value) {
+        if (shape == "mesh") {
+            const JsonObject object(value, {"file", "material", "shape", "transform"});
+            const JsonValue file = object.required("file");
+            const std::uint32_t material = material_reference(object.required("material"));
+            return add_mesh_file(file, resolve(file), material);
+        }
+        if (shape == "sphere") {
+            const JsonObject object(
+                value, {"material", "radius", "rings", "segments", "shape", "transform"});
+            const auto radius_value = object.optional("radius");
+            const float radius =
+                radius_value ? radius_value->number(NumberRange::above(0.0)) : 1.0f;
+            const auto segments_value = object.optional("segments");
+            const int segments = segments_value ? segments_value->integer(3, kMaxSegments) : 64;
+            const auto rings_value = object.optional("rings");
+            const int rings = rings_value ? rings_value->integer(2, kMaxSegments) : 32;
+            const std::uint32_t material = material_reference(object.required("material"));
+            return add_procedural(value,
+                                  fmt::format("sphere radius={} segments={} rings={} material={}",
+                                              radius, segments, rings, material),
+                                  [&] { return make_sphere(radius, segments, rings, material); });
+        }
+        if (shape == "quad") {
+            const JsonObject object(value, {"material", "shape", "size", "transform"});
+            const Vec2f size = read_size(object);
+            const std::uint32_t material = material_reference(object.required("material"));
+            return add_procedural(
+                value, fmt::format("quad size={}x{} material={}", size.x(), size.y(), material),
+                [&] { return make_quad(size.x(), size.y(), material); });
+        }
+        const JsonObject object(value, {"materials", "shape", "size", "tiles", "transform"});
+        const Vec2f size = read_size(object);
+        int tiles_x = 8;
+        int tiles_z = 8;
+        if (const auto tiles = object.optional("tiles")) {
+            const std::string expected = "an array of 2 integers (tiles along x, along z)";
+            const auto counts = tiles->elements(expected);
+            if (counts.size() != 2) {
+                tiles->fail_expected(expected);
+            }
+            tiles_x = counts[0].integer(1, kMaxTiles);
+            tiles_z = counts[1].integer(1, kMaxTiles);
+        }
+        const JsonValue materials = object.required("materials");
+        const std::string expected = "an array of 2 material names";
+        const auto names = materials.elements(expected);
+        if (names.size() != 2) {
+            materials.fail_expected(expected);
+        }
+        const std::uint32_t material_a = material_reference(names[0]);
+        const std::uint32_t material_b = material_reference(names[1]);
+        return add_procedural(
+            value,
+            fmt::format("checkerboard size={}x{} tiles={}x{} materials={},{}", size.x(), size.y(),
+                        tiles_x, tiles_z, material_a, material_b),
+            [&] {
+                return make_checkerboard(size.x(), size.y(), tiles_x, tiles_z, material_a,
+                                         material_b);
+            });
+    }
+
+    static Vec2f read_size(const JsonObject& object) {
+        const auto size = object.optional("size");
+        return size ? size->vec2(NumberRange::above(0.0)) : Vec2f(1.0f, 1.0f);
+    }
+
+    std::uint32_t material_reference(const JsonValue& value) const {
+        const std::string name = value.string();
+        const auto it = m_material_index.find(name);
+        if (it == m_material_index.end()) {
+            value.fail(fmt::format("unknown material \"{}\" ({})", name,
+                                   expected_names(m_material_index, "materials")));
+        }
+        return it->second;
+    }
+
+    std::filesystem::path resolve(const JsonValue& value) const {
+        const std::string name = value.string();
+        if (name.empty()) {
+            value.fail_expected("a file name");
+        }
+        if (auto path = resolve_data_file(name, m_directory)) {
+            return *path;
+        }
+        const std::filesystem::path relative(name);
+        std::vector<std::string> looked;
+        if (relative.is_absolute()) {
+            looked.push_back(name);
+        } else {
+            looked.push_back((m_directory / relative).string());
+            for (const auto& directory : data_search_path()) {
+                looked.push_back((directory / relative).string());
+            }
+        }
+        value.fail(fmt::format("file \"{}\" not found (looked in: {})", name, join(looked, ", ")));
+    }
+
+    std::uint32_t add_mesh_file(const JsonValue& file, const std::filesystem::path& path,
+                                std::uint32_t material) {
+        const auto key = std::pair{path.string(), material};
+        if (const auto it = m_file_meshes.find(key); it != m_file_meshes.end()) {
+            return it->second;
+        }
+        const auto index = static_cast<std::uint32_t>(m_scene.meshes.size());
+        m_scene.meshes.emplace_back();
+        m_pending_files.push_back(PendingMeshFile{index, path, material, file.pointer()});
+        m_file_meshes.emplace(key, index);
+        return index;
+    }
+
+    std::uint32_t add_procedural(const JsonValue& object, const std::string& recipe,
+                                 const std::function<Mesh()>& make) {
+        if (const auto it = m_procedural_meshes.find(recipe); it != m_procedural_meshes.end()) {
+            return it->second;
+        }
+        const auto index = static_cast<std::uint32_t>(m_scene.meshes.size());
+        try {
+            m_scene.meshes.push_back(make());
+        } catch (const Error& e) {
+            // Each parameter is in range, but together they can exceed the vertex budget.
+            object.fail(e.what());
+        }
+        m_procedural_meshes.emplace(recipe, index);
+        return index;
+    }
+
+    void check_group_cycles() const {
+        std::vector<VisitState> state(m_scene.groups.size(), VisitState::Unvisited);
+        std::vector<std::uint32_t> path;
+        std::vector<const GroupReference*> edges;
+        for (std::uint32_t group = 0; group < m_scene.groups.size(); ++group) {
+            if (state[group] == VisitState::Unvisited) {
+                visit_group(group, state, path, edges);
+            }
+        }
+    }
+
+    enum class VisitState : std::uint8_t { Unvisited, OnPath, Done };
+
+    // Depth-first; edges[i] leaves path[i], so a back edge to path[k] closes the cycle that
+    // starts with edges[k].
+    void visit_group(std::uint32_t group, std::vector<VisitState>& state,
+                     std::vector<std::uint32_t>& path,
+                     std::vector<const GroupReference*>& edges) const {
+        state[group] = VisitState::OnPath;
+        path.push_back(group);
+        for (const GroupReference& reference : m_group_references[group]) {
+            edges.push_back(&reference);
+            if (state[reference.group] == VisitState::OnPath) {
+                const auto start = static_cast<std::size_t>(
+                    std::find(path.begin(), path.end(), reference.group) - path.begin());
+                std::vector<std::string> names;
+                for (std::size_t i = start; i < path.size(); ++i) {
+                    names.push_back(m_scene.groups[path[i]].name);
+                }
+                names.push_back(m_scene.groups[reference.group].name);
+                throw Error(m_file, edges[start]->pointer, "group cycle " + join(names, " → "));
+            }
+            if (state[reference.group] == VisitState::Unvisited) {
+                visit_group(reference.group, state, path, edges);
+            }
+            edges.pop_back();
+        }
+        path.pop_back();
+        state[group] = VisitState::Done;
+    }
+
+    void load_mesh_files() {
+        // A file used with several materials is read once; the copies differ in materials only.
+        std::map<std::filesystem::path, std::uint32_t> loaded;
+        for (const PendingMeshFile& pending : m_pending_files) {
+            Mesh& slot = m_scene.meshes[pending.mesh];
+            if (const auto it = loaded.find(pending.path); it != loaded.end()) {
+                slot = m_scene.meshes[it->second];
+                slot.materials.assign(slot.triangles.size(), pending.material);
+                continue;
+            }
+            MeshLoadResult result;
+            try {
+                result = load_mesh(pending.path, pending.material);
+            } catch (const std::exception& e) {
+                throw Error(m_file, pending.pointer, e.what());
+            }
+            const std::size_t dropped = result.degenerate_triangles_removed;
+            if (dropped > 0 && m_options.warn) {
+                m_options.warn(fmt::format("{}: {}: {}: dropped {} degenerate triangle{}",
+                                           m_file.string(), pending.pointer, pending.path.string(),
+                                           dropped, dropped == 1 ? "" : "s"));
+            }
+            slot = std::move(result.mesh);
+            loaded.emplace(pending.path, pending.mesh);
+        }
+    }
+
+    const std::filesystem::path& m_file;
+    std::filesystem::path m_directory;
+    const SceneLoadOptions& m_options;
+    Scene m_scene;
+    std::map<std::string, std::uint32_t> m_material_index;
+    std::map<std::string, std::uint32_t> m_group_index;
+    std::map<std::pair<std::string, bool>, int> m_texture_index;
+    std::map<std::pair<std::string, std::uint32_t>, std::uint32_t> m_file_meshes;
+    std::map<std::string, std::uint32_t> m_procedural_meshes;
+    std::vector<PendingMeshFile> m_pending_files;
+    std::vector<std::vector<GroupReference>> m_group_references;
+};
+
+}  // namespace
+
+Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& options) {
+    std::error_code error;
+    if (std::filesystem::is_directory(file, error)) {
+        throw Error(file, "", "is a directory, expected a scene file");
+    }
+    std::ifstream in(file, std::ios::binary);
+    if (!in) {
+        throw Error(file, "",
+                    std::filesystem::exists(file, error) ? "cannot read the scene file"
+                                                         : "scene file not found");
+    }
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (in.bad()) {
+        throw Error(file, "", "cannot read the scene file");
+    }
+    return parse_scene(text.str(), file, options);
+}
+
+Scene parse_scene(const std::string& json_text, const std::filesystem::path& file,
+                  const SceneLoadOptions& options) {
+    const Json document = parse_json_text(json_text, file);
+    return SceneBuilder(file, options).build(document);
+}
+
+}  // namespace mrt
