@@ -1,1 +1,127 @@
+// mrt-trace as a user meets it: exit codes, one-line messages naming the file, and the stats
+// JSON contract.
+
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TraceRun {
+    int exit_code;
+    std::string output;  ///< stdout and stderr together
+};
+
+TraceRun run_trace(const std::string& arguments) {
+    const std::string command = std::string(MRT_TRACE_EXE) + " " + arguments + " 2>&1";
+    FILE* pipe = popen(command.c_str(), "r");
+    if (pipe == nullptr) {
+        return {-1, "popen failed"};
+    }
+    std::string output;
+    std::array<char, 4096> buffer{};
+    while (fgets(buffer.data(), static_cast<int>(buffer.size()), pipe) != nullptr) {
+        output += buffer.data();
+    }
+    const int status = pclose(pipe);
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), output};
+}
+
+fs::path temp_dir() {
+    const fs::path dir =
+        fs::temp_directory_path() /
+        ("mrt_cli_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+         ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir);
+    return dir;
+}
+
+std::string scene_path() {
+    return std::string(MRT_SOURCE_DIR) + "/data/scenes/two-spheres.json";
+}
+
+int count_lines(const std::string& s) {
+    return static_cast<int>(std::count(s.begin(), s.end(), '\n'));
+}
+
+TEST(MrtTraceCli, RendersAndWritesTheStatsContract) {
+    const fs::path dir = temp_dir();
+    const TraceRun run =
+        run_trace(scene_path() + " -o " + (dir / "out.png").string() +
+                  " --width 32 --height 24 --threads 2 --stats " + (dir / "stats.json").string());
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_TRUE(run.output.empty()) << "not a terminal, so silent: " << run.output;
+    EXPECT_TRUE(fs::exists(dir / "out.png"));
+    std::ifstream in(dir / "stats.json");
+    const nlohmann::json stats = nlohmann::json::parse(in);
+    for (const char* key : {"load_seconds", "build_seconds", "render_seconds", "rays",
+                            "rays_per_second", "peak_rss_bytes"}) {
+        EXPECT_TRUE(stats.contains(key)) << key;
+    }
+    EXPECT_EQ(stats["width"], 32);
+    EXPECT_EQ(stats["height"], 24);
+    EXPECT_GE(stats["rays"].get<std::uint64_t>(), 32u * 24u);
+    EXPECT_GT(stats["peak_rss_bytes"].get<std::uint64_t>(), 0u);
+    fs::remove_all(dir);
+}
+
+TEST(MrtTraceCli, MissingSceneIsOneLineNamingTheFile) {
+    const fs::path dir = temp_dir();
+    const TraceRun run =
+        run_trace((dir / "nope.json").string() + " -o " + (dir / "x.png").string());
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(count_lines(run.output), 1) << run.output;
+    EXPECT_NE(run.output.find("nope.json"), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(dir / "x.png"));
+    fs::remove_all(dir);
+}
+
+TEST(MrtTraceCli, BrokenSceneNamesFileAndPosition) {
+    const fs::path dir = temp_dir();
+    { std::ofstream(dir / "broken.json") << "{\n  \"camera\": {\n    \"eye\": [0, 1,,]\n"; }
+    const TraceRun run =
+        run_trace((dir / "broken.json").string() + " -o " + (dir / "x.png").string());
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(count_lines(run.output), 1) << run.output;
+    EXPECT_NE(run.output.find("broken.json"), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find("line 3"), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(dir / "x.png"));
+    fs::remove_all(dir);
+}
+
+TEST(MrtTraceCli, BadCommandLinesExitWithUsageCode) {
+    EXPECT_EQ(run_trace("").exit_code, 2);
+    EXPECT_EQ(run_trace(scene_path() + " -o x.png --method nonsense").exit_code, 2);
+    EXPECT_EQ(run_trace(scene_path() + " -o x.png --spp 0").exit_code, 2);
+    EXPECT_EQ(run_trace(scene_path() + " -o x.png --bogus").exit_code, 2);
+    const TraceRun help = run_trace("--help");
+    EXPECT_EQ(help.exit_code, 0);
+    EXPECT_NE(help.output.find("--spp"), std::string::npos);
+}
+
+TEST(MrtTraceCli, UnwritableOutputFailsCleanly) {
+    const TraceRun run = run_trace(scene_path() + " -o /nonexistent-dir/x.png --width 8");
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(count_lines(run.output), 1) << run.output;
+    EXPECT_NE(run.output.find("x.png"), std::string::npos) << run.output;
+}
+
+TEST(MrtTraceCli, UnknownOutputExtensionIsRefused) {
+    const fs::path dir = temp_dir();
+    const TraceRun run =
+        run_trace(scene_path() + " -o " + (dir / "x.bmpx").string() + " --width 8");
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_NE(run.output.find("x.bmpx"), std::string::npos) << run.output;
+    fs::remove_all(dir);
+}
+
+}  // namespace

@@ -1,7 +1,7 @@
 // Texture lookups against an independent bilinear reconstruction of a tiny image.
 
-#include "common/image.h"
 #include "common/texture.h"
+#include "common/image.h"
 
 #include <gtest/gtest.h>
 

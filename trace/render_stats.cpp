@@ -1,1 +1,68 @@
 #include "trace/render_stats.h"
+
+#include "common/error.h"
+
+#include <sys/resource.h>
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <ostream>
+#include <system_error>
+
+namespace mrt {
+
+std::ostream& operator<<(std::ostream& os, const RayCounters& c) {
+    return os << "RayCounters{primary " << c.primary << ", secondary " << c.secondary << ", shadow "
+              << c.shadow << "}";
+}
+
+std::uint64_t peak_rss_bytes() {
+    rusage usage{};
+    if (getrusage(RUSAGE_SELF, &usage) != 0) {
+        return 0;
+    }
+    // Linux reports ru_maxrss in kibibytes.
+    return static_cast<std::uint64_t>(usage.ru_maxrss) * 1024u;
+}
+
+void write_render_stats(const std::filesystem::path& file, const RenderStats& stats) {
+    const double rays = static_cast<double>(stats.rays.total());
+    const nlohmann::json j = {
+        {"method", stats.method},
+        {"scene", stats.scene},
+        {"width", stats.width},
+        {"height", stats.height},
+        {"spp", stats.spp},
+        {"threads", stats.threads},
+        {"load_seconds", stats.load_seconds},
+        {"build_seconds", stats.build_seconds},
+        {"render_seconds", stats.render_seconds},
+        {"rays", stats.rays.total()},
+        {"primary_rays", stats.rays.primary},
+        {"secondary_rays", stats.rays.secondary},
+        {"shadow_rays", stats.rays.shadow},
+        {"rays_per_second", stats.render_seconds > 0.0 ? rays / stats.render_seconds : 0.0},
+        {"unique_triangles", stats.unique_triangles},
+        {"instanced_triangles", stats.instanced_triangles},
+        {"peak_rss_bytes", peak_rss_bytes()},
+    };
+    std::filesystem::path temporary = file;
+    temporary += ".tmp";
+    {
+        std::ofstream out(temporary);
+        out << j.dump(2) << '\n';
+        if (!out) {
+            std::error_code ignored;
+            std::filesystem::remove(temporary, ignored);
+            throw Error(file, "", "cannot write the stats file");
+        }
+    }
+    std::error_code ec;
+    std::filesystem::rename(temporary, file, ec);
+    if (ec) {
+        std::filesystem::remove(temporary, ec);
+        throw Error(file, "", "cannot write the stats file");
+    }
+}
+
+}  // namespace mrt

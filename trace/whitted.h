@@ -1,1 +1,42 @@
 #pragma once
+// The conventional ray tracer (Whitted 1980), the speed baseline of every comparison: one ray
+// per pixel centre (or a fixed jittered grid with spp > 1, box-filtered), Phong shading with
+// hard shadows from point lights and from area lights reduced to their centres, mirror
+// reflection and refraction weighted by the material coefficients, total internal reflection,
+// and a recursion depth limit.
+
+#include "common/camera_rays.h"
+#include "common/scene.h"
+#include "common/texture.h"
+#include "trace/render.h"
+#include "trace/scene_bvh.h"
+
+namespace mrt {
+
+class WhittedTracer {
+  public:
+    WhittedTracer(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures,
+                  int max_depth);
+
+    /// Radiance arriving along `ray` (reflection/refraction depth `depth` so far).
+    Rgb radiance(const Ray& ray, int depth, RayCounters& counters) const;
+
+  private:
+    Rgb direct_light(const struct SurfacePoint& sp, const Material& material, const Rgb& albedo,
+                     const Vec3f& wo, RayCounters& counters) const;
+
+    const Scene& m_scene;
+    const SceneBvh& m_bvh;
+    const TextureSampler& m_textures;
+    int m_max_depth;
+};
+
+/// Renders the scene's camera with the Whitted tracer.
+RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options);
+
+/// Sub-pixel sample positions in [0,1)² of sample `index` of `count` in pixel (x, y): the pixel
+/// centre for one sample, a jittered grid when count is a square, otherwise jittered N-rooks
+/// (Latin hypercube) strata; deterministic in (seed, x, y, index).
+Vec2f pixel_sample(std::uint64_t seed, int x, int y, int index, int count);
+
+}  // namespace mrt

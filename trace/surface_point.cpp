@@ -1,0 +1,51 @@
+#include "trace/surface_point.h"
+
+namespace mrt {
+
+SurfacePoint make_surface_point(const Scene& scene, const SceneHit& hit, const Vec3f& direction) {
+    const Mesh& mesh = scene.meshes[hit.mesh];
+    const auto& tri = mesh.triangles[hit.triangle];
+    const float b0 = 1.0f - hit.b1 - hit.b2;
+    const Vec3f& p0 = mesh.positions[tri[0]];
+    const Vec3f& p1 = mesh.positions[tri[1]];
+    const Vec3f& p2 = mesh.positions[tri[2]];
+    const Vec3f object_position = b0 * p0 + hit.b1 * p1 + hit.b2 * p2;
+
+    SurfacePoint sp;
+    sp.material = mesh.materials[hit.triangle];
+    const auto linear = hit.object_to_world.linear();
+    // Normals transform by the inverse transpose; the cofactor matrix is that up to a positive
+    // factor for orientation-preserving transforms and flips correctly for mirroring ones.
+    const Mat3f normal_matrix = linear.inverse().transpose();
+    sp.position = hit.object_to_world * object_position;
+    const float vertex_magnitude =
+        std::max({p0.cwiseAbs().maxCoeff(), p1.cwiseAbs().maxCoeff(), p2.cwiseAbs().maxCoeff()});
+    // Error of the barycentric sum in object space, carried through the transform by its norm,
+    // plus the transform's own rounding at the world point's magnitude.
+    const float object_error = intersection_error_bound(object_position, vertex_magnitude);
+    sp.error_bound = object_error * linear.cwiseAbs().rowwise().sum().maxCoeff() +
+                     intersection_error_bound(sp.position, 0.0f);
+
+    Vec3f ng = normal_matrix * (p1 - p0).cross(p2 - p0);
+    const float ng_norm = ng.norm();
+    ng = ng_norm > 0.0f && std::isfinite(ng_norm) ? Vec3f(ng / ng_norm) : Vec3f(0.0f, 0.0f, 1.0f);
+    Vec3f ns = normal_matrix * (b0 * mesh.normals[tri[0]] + hit.b1 * mesh.normals[tri[1]] +
+                                hit.b2 * mesh.normals[tri[2]]);
+    const float ns_norm = ns.norm();
+    ns = ns_norm > 0.0f && std::isfinite(ns_norm) ? Vec3f(ns / ns_norm) : ng;
+
+    sp.entering = ng.dot(direction) < 0.0f;
+    if (!sp.entering) {
+        ng = -ng;
+        ns = -ns;
+    }
+    sp.geometric_normal = ng;
+    sp.shading_normal = ns;
+    if (mesh.has_uvs()) {
+        sp.has_uv = true;
+        sp.uv = b0 * mesh.uvs[tri[0]] + hit.b1 * mesh.uvs[tri[1]] + hit.b2 * mesh.uvs[tri[2]];
+    }
+    return sp;
+}
+
+}  // namespace mrt
