@@ -1,0 +1,62 @@
+#!/usr/bin/env python3
+"""Summarises scripts/bench's raw results (Google Benchmark JSON and mrt-trace --stats files)
+into one JSON document on stdout (and into a file when one is named)."""
+
+import glob
+import json
+import os
+import statistics
+import sys
+
+
+def kernels(path):
+    with open(path) as f:
+        data = json.load(f)
+    out = {}
+    for b in data["benchmarks"]:
+        if b.get("aggregate_name") != "median":
+            continue
+        name = b["run_name"]
+        entry = {"real_time_ms": b["real_time"] if b["time_unit"] == "ms" else
+                 b["real_time"] / {"ns": 1e6, "us": 1e3, "s": 1e-3}[b["time_unit"]]}
+        for key, value in b.items():
+            if key in ("rays_per_second", "hit_fraction", "triangles", "nodes"):
+                entry[key] = value
+        out[name] = entry
+    return {"context": {k: data["context"].get(k) for k in ("num_cpus", "mhz_per_cpu",
+                                                               "library_build_type")},
+            "kernels": out}
+
+
+def renders(work):
+    groups = {}
+    for path in sorted(glob.glob(os.path.join(work, "render-*.json"))):
+        scene, threads, _ = os.path.basename(path)[len("render-"):-len(".json")].rsplit("-", 2)
+        with open(path) as f:
+            groups.setdefault((scene, int(threads)), []).append(json.load(f))
+    out = []
+    for (scene, threads), runs in sorted(groups.items()):
+        out.append({
+            "scene": scene, "threads": threads, "runs": len(runs),
+            "width": runs[0]["width"], "height": runs[0]["height"],
+            "rays": runs[0]["rays"], "primary_rays": runs[0]["primary_rays"],
+            "median_build_seconds": statistics.median(r["build_seconds"] for r in runs),
+            "median_render_seconds": statistics.median(r["render_seconds"] for r in runs),
+            "median_rays_per_second": statistics.median(r["rays_per_second"] for r in runs),
+        })
+    return out
+
+
+def main():
+    work = sys.argv[1]
+    report = kernels(os.path.join(work, "kernels.json"))
+    report["whitted_renders"] = renders(work)
+    text = json.dumps(report, indent=2)
+    print(text)
+    if len(sys.argv) > 2 and sys.argv[2]:
+        with open(sys.argv[2], "w") as f:
+            f.write(text + "\n")
+
+
+if __name__ == "__main__":
+    main()
