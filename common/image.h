@@ -10,7 +10,7 @@
 namespace mrt {
 
 class Image {
-public:
+  public:
     Image() = default;
     Image(int width, int height, const Rgb& fill = Rgb::Zero());
 
@@ -33,10 +33,11 @@ public:
     const std::vector<float>& data() const { return m_pixels; }
     std::vector<float>& data() { return m_pixels; }
 
-private:
+  private:
     std::size_t index(int x, int y) const {
         return (static_cast<std::size_t>(y) * static_cast<std::size_t>(m_width) +
-                static_cast<std::size_t>(x)) * 3;
+                static_cast<std::size_t>(x)) *
+               3;
     }
     int m_width = 0;
     int m_height = 0;

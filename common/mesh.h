@@ -13,10 +13,10 @@
 namespace mrt {
 
 struct Mesh {
-    std::string name;                 ///< Where it came from (file name or procedural recipe).
-    std::vector<Vec3f> positions;     ///< Object-space vertex positions.
-    std::vector<Vec3f> normals;       ///< Unit vertex normals; same size as positions.
-    std::vector<Vec2f> uvs;           ///< Texture coordinates per vertex, or empty.
+    std::string name;              ///< Where it came from (file name or procedural recipe).
+    std::vector<Vec3f> positions;  ///< Object-space vertex positions.
+    std::vector<Vec3f> normals;    ///< Unit vertex normals; same size as positions.
+    std::vector<Vec2f> uvs;        ///< Texture coordinates per vertex, or empty.
     std::vector<std::array<std::uint32_t, 3>> triangles;  ///< Counter-clockwise vertex indices.
     std::vector<std::uint32_t> materials;  ///< Index into Scene::materials, one per triangle.
 
