@@ -20,8 +20,10 @@ def kernels(path):
         entry = {"real_time_ms": b["real_time"] if b["time_unit"] == "ms" else
                  b["real_time"] / {"ns": 1e6, "us": 1e3, "s": 1e-3}[b["time_unit"]]}
         for key, value in b.items():
-            if key in ("rays_per_second", "hit_fraction", "triangles", "nodes"):
+            if key in ("hit_fraction", "triangles", "nodes"):
                 entry[key] = value
+            elif key == "rays/s":
+                entry["rays_per_second"] = value
         out[name] = entry
     return {"context": {k: data["context"].get(k) for k in ("num_cpus", "mhz_per_cpu",
                                                                "library_build_type")},

@@ -10,6 +10,7 @@
 #include "common/error.h"
 #include "common/mesh_io.h"
 #include "common/scene.h"
+#include "common/scene_loader.h"
 #include "trace/scene_bvh.h"
 #include "trace/triangle_bvh.h"
 
@@ -154,6 +155,43 @@ void BM_OccludedPrimaryRays(benchmark::State& state) {
         state, [&](const Ray& ray) { return bvh.occluded(ray); }, camera);
 }
 BENCHMARK(BM_OccludedPrimaryRays)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// The default scene (the paper's Figure 6), loaded once.
+const Scene& default_scene() {
+    static const Scene scene =
+        load_scene(std::filesystem::path(MRT_SOURCE_DIR) / "data/scenes/two-spheres.json");
+    return scene;
+}
+
+void BM_BuildSceneBvhDefaultScene(benchmark::State& state) {
+    const Scene& scene = default_scene();
+    const tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                                      static_cast<std::size_t>(state.range(0)));
+    for (auto _ : state) {
+        const SceneBvh bvh(scene);
+        benchmark::DoNotOptimize(bvh.stats().bytes);
+    }
+    state.counters["triangles"] = static_cast<double>(scene.unique_triangle_count());
+}
+BENCHMARK(BM_BuildSceneBvhDefaultScene)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_PrimaryRaysDefaultScene(benchmark::State& state) {
+    const Scene& scene = default_scene();
+    const SceneBvh bvh(scene);
+    const CameraRays camera(scene.camera, kImageSize, kImageSize);
+    run_primary(
+        state,
+        [&](const Ray& ray) {
+            SceneHit hit;
+            return bvh.intersect(ray, hit);
+        },
+        camera);
+}
+BENCHMARK(BM_PrimaryRaysDefaultScene)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace mrt
