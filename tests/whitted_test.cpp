@@ -240,6 +240,30 @@ TEST(Shading, RefractionFollowsSnellAndReflectsTotallyPastTheCriticalAngle) {
     }
 }
 
+TEST(Whitted, RayTreeStaysBoundedWithAHugeDepthLimit) {
+    // Two parallel half-mirrors that also transmit: without weight-based pruning every bounce
+    // doubles the tree and depth 1000 would never finish.
+    Scene s = top_down_scene();
+    Material glass = diffuse_material(0.0f);
+    glass.reflectivity = 0.45f;
+    glass.transparency = 0.5f;
+    glass.ior = 1.5f;
+    s.materials = {glass, diffuse_material(0.5f)};
+    s.ambient = Rgb::Constant(1.0f);
+    s.meshes.push_back(make_quad(100.0f, 100.0f, 0));
+    s.meshes.push_back(make_quad(100.0f, 100.0f, 1));
+    s.groups[0].children.push_back(place(0, Affine3f(Eigen::Translation3f(0.0f, 1.0f, 0.0f))));
+    s.groups[0].children.push_back(place(0, Affine3f(Eigen::Translation3f(0.0f, 0.5f, 0.0f))));
+    s.groups[0].children.push_back(place(1, Affine3f::Identity()));
+    const RenderOutput out = render(s, 2, 1000);
+    const std::uint64_t pixels = static_cast<std::uint64_t>(kSize) * kSize;
+    // Weights fall by at least 0.5 per bounce, so no branch outlives ~12 bounces.
+    EXPECT_LT(out.rays.secondary, pixels * 4096);
+    for (const float v : out.image.data()) {
+        ASSERT_TRUE(std::isfinite(v));
+    }
+}
+
 std::filesystem::path default_scene() {
     return std::filesystem::path(MRT_SOURCE_DIR) / "data/scenes/two-spheres.json";
 }

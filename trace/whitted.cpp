@@ -39,7 +39,7 @@ Rgb WhittedTracer::direct_light(const SurfacePoint& sp, const Material& material
     return sum;
 }
 
-Rgb WhittedTracer::radiance(const Ray& ray, int depth, RayCounters& counters) const {
+Rgb WhittedTracer::radiance(const Ray& ray, int depth, RayCounters& counters, float weight) const {
     SceneHit hit;
     if (!m_bvh.intersect(ray, hit)) {
         return m_scene.background;
@@ -58,18 +58,19 @@ Rgb WhittedTracer::radiance(const Ray& ray, int depth, RayCounters& counters) co
     }
 
     float reflect_weight = material.reflectivity;
-    if (material.refracts()) {
+    if (material.refracts() && weight * material.transparency >= kMinimumWeight) {
         const float eta = sp.entering ? 1.0f / material.ior : material.ior;
         if (const auto t = refract(d, sp.shading_normal, eta)) {
             ++counters.secondary;
             const Ray refracted{sp.spawn_origin(*t), *t, kInfinity};
-            result += material.transparency * radiance(refracted, depth + 1, counters);
+            result += material.transparency *
+                      radiance(refracted, depth + 1, counters, weight * material.transparency);
         } else {
             // Total internal reflection: the transmitted share is mirrored instead.
             reflect_weight += material.transparency;
         }
     }
-    if (reflect_weight > 0.0f) {
+    if (reflect_weight > 0.0f && weight * reflect_weight >= kMinimumWeight) {
         Vec3f r = reflect(d, sp.shading_normal);
         // An interpolated normal can mirror a ray below the geometric surface; fold it back.
         if (r.dot(sp.geometric_normal) <= 0.0f) {
@@ -77,7 +78,8 @@ Rgb WhittedTracer::radiance(const Ray& ray, int depth, RayCounters& counters) co
         }
         ++counters.secondary;
         const Ray reflected{sp.spawn_origin(r), r, kInfinity};
-        result += reflect_weight * radiance(reflected, depth + 1, counters);
+        result +=
+            reflect_weight * radiance(reflected, depth + 1, counters, weight * reflect_weight);
     }
     return result;
 }

@@ -18,8 +18,13 @@ class WhittedTracer {
     WhittedTracer(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures,
                   int max_depth);
 
-    /// Radiance arriving along `ray` (reflection/refraction depth `depth` so far).
-    Rgb radiance(const Ray& ray, int depth, RayCounters& counters) const;
+    /// Radiance arriving along `ray` (reflection/refraction depth `depth` so far; `weight` is
+    /// the product of the coefficients that scale this ray's contribution to the pixel).
+    Rgb radiance(const Ray& ray, int depth, RayCounters& counters, float weight = 1.0f) const;
+
+    /// Branches of the ray tree whose contribution to the pixel is scaled below this are not
+    /// traced (Hall & Greenberg 1983, adaptive tree depth control): a tenth of an 8-bit step.
+    static constexpr float kMinimumWeight = 1.0f / 2550.0f;
 
   private:
     Rgb direct_light(const struct SurfacePoint& sp, const Material& material, const Rgb& albedo,
