@@ -3,6 +3,7 @@
 // coordinates (x right, y down, pixel (i, j) covering [i, i+1) × [j, j+1)) to rays.
 
 #include "common/ray.h"
+#include "common/sampling.h"
 #include "common/scene.h"
 
 #include <iosfwd>
@@ -10,7 +11,7 @@
 namespace mrt {
 
 class CameraRays {
-public:
+  public:
     /// The camera renders a width × height image (which may differ from camera.width/height:
     /// the field of view stays vertical, the aspect follows the image).
     CameraRays(const Camera& camera, int width, int height);
@@ -33,7 +34,7 @@ public:
     int height() const { return m_height; }
     const Camera& camera() const { return m_camera; }
 
-private:
+  private:
     Camera m_camera;
     int m_width;
     int m_height;
@@ -42,9 +43,5 @@ private:
     Vec3f m_step_x, m_step_y;
     float m_focal_distance;
 };
-
-/// Concentric mapping of [0,1)² onto the unit disc (Shirley & Chiu 1997): area-preserving and
-/// low distortion, so stratified lens samples stay stratified.
-Vec2f concentric_disc(float u, float v);
 
 }  // namespace mrt

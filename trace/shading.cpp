@@ -1,5 +1,7 @@
 #include "trace/shading.h"
 
+#include "common/sampling.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -39,8 +41,11 @@ LightSample sample_point_light(const PointLight& light, const Vec3f& p) {
     return {to_light / d, d, light.intensity / d2};
 }
 
-LightSample sample_area_light_centre(const EllipticalAreaLight& light, const Vec3f& p) {
-    const Vec3f to_light = light.center - p;
+namespace {
+
+/// What the emitter point `point` of `light` delivers to p (see LightSample).
+LightSample emitter_point(const EllipticalAreaLight& light, const Vec3f& point, const Vec3f& p) {
+    const Vec3f to_light = point - p;
     const float d2 = to_light.squaredNorm();
     const float d = std::sqrt(d2);
     if (!(d > 0.0f)) {
@@ -50,6 +55,18 @@ LightSample sample_area_light_centre(const EllipticalAreaLight& light, const Vec
     const float cos_light = -wi.dot(light.normal());
     const float cos_emit = light.two_sided ? std::abs(cos_light) : std::max(0.0f, cos_light);
     return {wi, d, light.radiance * (light.area() * cos_emit / d2)};
+}
+
+}  // namespace
+
+LightSample sample_area_light_centre(const EllipticalAreaLight& light, const Vec3f& p) {
+    return emitter_point(light, light.center, p);
+}
+
+LightSample sample_area_light(const EllipticalAreaLight& light, const Vec3f& p, float u, float v) {
+    const Vec2f disc = concentric_disc(u, v);
+    return emitter_point(
+        light, light.center + disc.x() * light.semi_axis_u + disc.y() * light.semi_axis_v, p);
 }
 
 }  // namespace mrt

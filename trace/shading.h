@@ -39,4 +39,10 @@ LightSample sample_point_light(const PointLight& light, const Vec3f& p);
 /// point emitter with the light's radiant intensity L·A·|cos θ| in the direction of p.
 LightSample sample_area_light_centre(const EllipticalAreaLight& light, const Vec3f& p);
 
+/// One point of an elliptical area light, chosen uniformly by area from (u, v) ∈ [0,1)² (the
+/// concentric disc mapping keeps stratified (u, v) stratified on the ellipse), seen from p.
+/// `irradiance` is the one-sample estimator L·|cos θ_light|·A / d²: averaged over uniform
+/// samples, times the receiver cosine, it converges to the irradiance the light gives p.
+LightSample sample_area_light(const EllipticalAreaLight& light, const Vec3f& p, float u, float v);
+
 }  // namespace mrt
