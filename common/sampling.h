@@ -9,4 +9,14 @@ namespace mrt {
 /// low distortion, so stratified samples stay stratified.
 Vec2f concentric_disc(float u, float v);
 
+/// Two independent standard normal variates from (u, v) ∈ [0,1)² (Box–Muller). u = 0 is
+/// mapped to the open interval so the logarithm stays finite.
+Vec2f standard_normal_pair(float u, float v);
+
+/// Direction around the unit `axis` whose offset in the plane at distance 1 along the axis
+/// (tan θ · (cos φ, sin φ) in any orthonormal frame of the axis) is an isotropic 2D Gaussian of
+/// standard deviation `sigma`. This is how material roughness spreads reflected and refracted
+/// rays, the same Gaussian the ray cones widen by, so stochastic and cone tracers agree.
+Vec3f gaussian_spread_direction(const Vec3f& axis, float sigma, float u, float v);
+
 }  // namespace mrt
