@@ -1,5 +1,7 @@
 #include "common/sampling.h"
 
+#include "common/random.h"
+
 #include <cmath>
 
 namespace mrt {
@@ -38,6 +40,29 @@ Vec3f gaussian_spread_direction(const Vec3f& axis, float sigma, float u, float v
     orthonormal_basis(axis, t, b);
     const Vec2f g = sigma * standard_normal_pair(u, v);
     return (axis + g.x() * t + g.y() * b).normalized();
+}
+
+Vec2f pixel_sample(std::uint64_t seed, int x, int y, int index, int count) {
+    if (count <= 1) {
+        return {0.5f, 0.5f};
+    }
+    SampleRng rng(seed, static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y),
+                  static_cast<std::uint32_t>(index));
+    const float jitter_x = rng.uniform();
+    const float jitter_y = rng.uniform();
+    const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(count))));
+    if (side * side == count) {
+        return {(static_cast<float>(index % side) + jitter_x) / static_cast<float>(side),
+                (static_cast<float>(index / side) + jitter_y) / static_cast<float>(side)};
+    }
+    const auto pixel_key = static_cast<std::uint32_t>(
+        mix64(seed ^ mix64((static_cast<std::uint64_t>(static_cast<std::uint32_t>(x)) << 32) ^
+                           static_cast<std::uint32_t>(y))));
+    const std::uint32_t y_stratum = permute_index(static_cast<std::uint32_t>(index),
+                                                  static_cast<std::uint32_t>(count), pixel_key);
+    const float n = static_cast<float>(count);
+    return {(static_cast<float>(index) + jitter_x) / n,
+            (static_cast<float>(y_stratum) + jitter_y) / n};
 }
 
 }  // namespace mrt

@@ -3,6 +3,8 @@
 
 #include "common/math.h"
 
+#include <cstdint>
+
 namespace mrt {
 
 /// Concentric mapping of [0,1)² onto the unit disc (Shirley & Chiu 1997): area-preserving and
@@ -18,5 +20,11 @@ Vec2f standard_normal_pair(float u, float v);
 /// standard deviation `sigma`. This is how material roughness spreads reflected and refracted
 /// rays, the same Gaussian the ray cones widen by, so stochastic and cone tracers agree.
 Vec3f gaussian_spread_direction(const Vec3f& axis, float sigma, float u, float v);
+
+/// Position in [0,1)² of sample `index` of `count` in pixel (x, y): the pixel centre for one
+/// sample, a jittered grid when count is a square, otherwise jittered N-rooks (every x and every
+/// y stratum of width 1/count used once, y strata permuted per pixel). Deterministic in
+/// (seed, x, y, index) and O(1) per sample.
+Vec2f pixel_sample(std::uint64_t seed, int x, int y, int index, int count);
 
 }  // namespace mrt

@@ -69,5 +69,47 @@ TEST(Sampling, GaussianSpreadHasTheStatedTangentPlaneDeviation) {
     EXPECT_EQ(gaussian_spread_direction(axis, 0.0f, 0.5f, 0.5f), axis);
 }
 
+TEST(Sampling, PermuteIndexIsABijectionForAnyLength) {
+    for (std::uint32_t length : {1U, 2U, 3U, 5U, 7U, 16U, 17U, 100U, 1000U}) {
+        for (std::uint32_t key : {0U, 1U, 0xdeadbeefU, 0x12345678U}) {
+            std::vector<int> seen(length, 0);
+            for (std::uint32_t i = 0; i < length; ++i) {
+                const std::uint32_t p = permute_index(i, length, key);
+                ASSERT_LT(p, length);
+                ++seen[p];
+            }
+            for (std::uint32_t i = 0; i < length; ++i) {
+                ASSERT_EQ(seen[i], 1) << "length " << length << " key " << key;
+            }
+        }
+    }
+}
+
+TEST(Sampling, PixelSamplesAreStratifiedInBothAxes) {
+    EXPECT_EQ(pixel_sample(1, 3, 4, 0, 1), Vec2f(0.5f, 0.5f));
+    for (int count : {2, 3, 4, 5, 9, 12, 16, 33}) {
+        const int side = static_cast<int>(std::lround(std::sqrt(count)));
+        const bool grid = side * side == count;
+        const int nx = grid ? side : count;
+        std::vector<int> cells(static_cast<std::size_t>(nx * nx), 0);
+        std::vector<int> rows(static_cast<std::size_t>(nx), 0);
+        for (int i = 0; i < count; ++i) {
+            const Vec2f s = pixel_sample(42, 17, 9, i, count);
+            ASSERT_TRUE(s.x() >= 0.0f && s.x() < 1.0f && s.y() >= 0.0f && s.y() < 1.0f);
+            const int cx = static_cast<int>(s.x() * static_cast<float>(nx));
+            const int cy = static_cast<int>(s.y() * static_cast<float>(nx));
+            ++cells[static_cast<std::size_t>(cy * nx + cx)];
+            ++rows[static_cast<std::size_t>(cy)];
+        }
+        for (int c : cells) {
+            // A grid fills every cell once; N-rooks at most once per cell and once per row.
+            ASSERT_LE(c, 1) << "count " << count;
+        }
+        for (int r : rows) {
+            ASSERT_EQ(r, grid ? side : 1) << "count " << count;
+        }
+    }
+}
+
 }  // namespace
 }  // namespace mrt

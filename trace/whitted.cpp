@@ -1,6 +1,6 @@
 #include "trace/whitted.h"
 
-#include "common/random.h"
+#include "common/sampling.h"
 #include "trace/shading.h"
 #include "trace/surface_point.h"
 
@@ -82,36 +82,6 @@ Rgb WhittedTracer::radiance(const Ray& ray, int depth, RayCounters& counters, fl
             reflect_weight * radiance(reflected, depth + 1, counters, weight * reflect_weight);
     }
     return result;
-}
-
-Vec2f pixel_sample(std::uint64_t seed, int x, int y, int index, int count) {
-    if (count <= 1) {
-        return {0.5f, 0.5f};
-    }
-    SampleRng rng(seed, static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y),
-                  static_cast<std::uint32_t>(index));
-    const float jitter_x = rng.uniform();
-    const float jitter_y = rng.uniform();
-    const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(count))));
-    if (side * side == count) {
-        return {(static_cast<float>(index % side) + jitter_x) / static_cast<float>(side),
-                (static_cast<float>(index / side) + jitter_y) / static_cast<float>(side)};
-    }
-    // N-rooks: sample i takes x stratum i and a y stratum from a per-pixel permutation, found
-    // by ranking hashed keys so that every y stratum is used exactly once.
-    const auto key = [&](int i) {
-        return mix64(seed ^
-                     mix64((static_cast<std::uint64_t>(x) << 32) ^ static_cast<std::uint32_t>(y)) ^
-                     static_cast<std::uint64_t>(i));
-    };
-    const std::uint64_t own = key(index);
-    int rank = 0;
-    for (int i = 0; i < count; ++i) {
-        const std::uint64_t other = key(i);
-        rank += (other < own || (other == own && i < index)) ? 1 : 0;
-    }
-    const float n = static_cast<float>(count);
-    return {(static_cast<float>(index) + jitter_x) / n, (static_cast<float>(rank) + jitter_y) / n};
 }
 
 RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options) {

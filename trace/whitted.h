@@ -39,9 +39,4 @@ class WhittedTracer {
 /// Renders the scene's camera with the Whitted tracer.
 RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options);
 
-/// Sub-pixel sample positions in [0,1)² of sample `index` of `count` in pixel (x, y): the pixel
-/// centre for one sample, a jittered grid when count is a square, otherwise jittered N-rooks
-/// (Latin hypercube) strata; deterministic in (seed, x, y, index).
-Vec2f pixel_sample(std::uint64_t seed, int x, int y, int index, int count);
-
 }  // namespace mrt
