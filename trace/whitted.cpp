@@ -58,13 +58,15 @@ Rgb WhittedTracer::radiance(const Ray& ray, int depth, RayCounters& counters, fl
     }
 
     float reflect_weight = material.reflectivity;
-    if (material.refracts() && weight * material.transparency >= kMinimumWeight) {
+    if (material.refracts()) {
         const float eta = sp.entering ? 1.0f / material.ior : material.ior;
         if (const auto t = refract(d, sp.shading_normal, eta)) {
-            ++counters.secondary;
-            const Ray refracted{sp.spawn_origin(*t), *t, kInfinity};
-            result += material.transparency *
-                      radiance(refracted, depth + 1, counters, weight * material.transparency);
+            if (weight * material.transparency >= kMinimumWeight) {
+                ++counters.secondary;
+                const Ray refracted{sp.spawn_origin(*t), *t, kInfinity};
+                result += material.transparency *
+                          radiance(refracted, depth + 1, counters, weight * material.transparency);
+            }
         } else {
             // Total internal reflection: the transmitted share is mirrored instead.
             reflect_weight += material.transparency;
