@@ -1,6 +1,7 @@
 #include "common/image_metrics.h"
 
 #include "common/error.h"
+#include "tests/test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -82,14 +83,7 @@ Image shifted_left(const Image& image) {
     return out;
 }
 
-std::string error_message(const auto& f) {
-    try {
-        f();
-    } catch (const mrt::Error& e) {
-        return e.what();
-    }
-    return "(no error thrown)";
-}
+using mrt::testing::error_message;
 
 /// SSIM of two constant images: the structure term is C2/C2 and only luminance remains.
 double constant_ssim(double a, double b) {

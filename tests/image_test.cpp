@@ -1,6 +1,7 @@
 #include "common/image.h"
 
 #include "common/error.h"
+#include "tests/test_support.h"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -25,14 +26,7 @@ namespace fs = std::filesystem;
 using mrt::Image;
 using mrt::Rgb;
 
-std::string error_message(const auto& f) {
-    try {
-        f();
-    } catch (const mrt::Error& e) {
-        return e.what();
-    }
-    return "(no error thrown)";
-}
+using mrt::testing::error_message;
 
 std::vector<std::string> directory_entries(const fs::path& dir) {
     std::vector<std::string> names;

@@ -2,6 +2,7 @@
 
 #include "trace/pixel_filter.h"
 #include "common/error.h"
+#include "tests/test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -44,13 +45,9 @@ TEST(PixelFilter, ParsesItsSpellingsAndRefusesOthers) {
                             "gaussian:1.5x", "gaussian:100", "gaussian:nan", "gaussian1"}) {
         EXPECT_THROW(parse_pixel_filter(bad), Error) << bad;
     }
-    try {
-        parse_pixel_filter("tent");
-    } catch (const Error& e) {
-        EXPECT_STREQ(e.what(),
-                     "pixel filter: found \"tent\", expected box, gaussian or gaussian:SIGMA "
-                     "with SIGMA in (0, 16] pixels");
-    }
+    EXPECT_EQ(testing::error_message([] { parse_pixel_filter("tent"); }),
+              "pixel filter: found \"tent\", expected box, gaussian or gaussian:SIGMA with "
+              "SIGMA in (0, 16] pixels");
 }
 
 }  // namespace
