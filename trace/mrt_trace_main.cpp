@@ -3,6 +3,8 @@
 #include "common/error.h"
 #include "common/image.h"
 #include "common/scene_loader.h"
+#include "trace/distributed.h"
+#include "trace/pixel_filter.h"
 #include "trace/render_stats.h"
 #include "trace/scene_bvh.h"
 #include "trace/whitted.h"
@@ -17,6 +19,7 @@
 #include <iostream>
 #include <optional>
 #include <string>
+#include <thread>
 
 namespace {
 
@@ -30,7 +33,13 @@ struct Arguments {
     std::filesystem::path scene;
     std::filesystem::path output;
     std::string method = "whitted";
-    int spp = 1;
+    std::optional<int> spp;
+    int spp_initial = 2;
+    std::optional<int> spp_max;
+    float target_error = 0.005f;
+    double time_budget = 0.0;
+    bool reference = false;
+    std::string filter = "box";
     std::optional<int> width;
     std::optional<int> height;
     int threads = 0;
@@ -58,6 +67,35 @@ std::pair<int, int> image_size(const mrt::Camera& camera, const Arguments& args)
     return {w, h};
 }
 
+constexpr int kDefaultReferenceSpp = 1024;
+constexpr int kMaxSpp = 65536;
+
+/// Options that only some methods read must not be silently ignored by the others.
+void check_method_options(const CLI::App& app, const Arguments& args) {
+    if (args.method != "distributed") {
+        for (const char* option :
+             {"--spp-initial", "--spp-max", "--target-error", "--time-budget", "--reference"}) {
+            if (app.count(option) > 0) {
+                throw CLI::ValidationError(option, "only the distributed method takes it");
+            }
+        }
+        return;
+    }
+    if (args.reference && args.time_budget > 0.0) {
+        throw CLI::ValidationError("--reference",
+                                   "a reference has a sample count, not a time budget");
+    }
+    if (args.spp && (app.count("--spp-initial") + app.count("--spp-max") +
+                     app.count("--target-error") + app.count("--time-budget")) > 0) {
+        throw CLI::ValidationError("--spp",
+                                   "a fixed sample count excludes the adaptive options "
+                                   "(--spp-initial, --spp-max, --target-error, --time-budget)");
+    }
+    if (args.spp_max && *args.spp_max < args.spp_initial) {
+        throw CLI::ValidationError("--spp-max", "must be at least --spp-initial");
+    }
+}
+
 int run(const Arguments& args) {
     mrt::check_image_output(args.output);
     const auto load_start = Clock::now();
@@ -81,14 +119,24 @@ int run(const Arguments& args) {
 
     mrt::RenderOptions options;
     std::tie(options.width, options.height) = image_size(scene.camera, args);
-    options.spp = args.spp;
+    options.filter = mrt::parse_pixel_filter(args.filter);
+    options.spp = args.spp.value_or(args.reference ? kDefaultReferenceSpp : 1);
+    options.fixed_spp = args.spp.has_value();
+    options.spp_initial = args.spp_initial;
+    // A time budget alone decides when to stop, unless a cap was asked for.
+    options.spp_max = args.spp_max.value_or(args.time_budget > 0.0 ? kMaxSpp : 16);
+    options.target_error = args.target_error;
+    options.time_budget = args.time_budget;
+    options.reference = args.reference;
     options.seed = args.seed;
     options.threads = args.threads;
     options.max_depth = args.max_depth.value_or(-1);
     options.quiet = args.quiet;
 
     const auto render_start = Clock::now();
-    mrt::RenderOutput out = mrt::render_whitted(scene, bvh, options);
+    mrt::RenderOutput out = args.method == "distributed"
+                                ? mrt::render_distributed(scene, bvh, options)
+                                : mrt::render_whitted(scene, bvh, options);
     out.render_seconds = seconds_since(render_start);
 
     mrt::write_image(args.output, out.image);
@@ -99,7 +147,19 @@ int run(const Arguments& args) {
         stats.scene = args.scene.string();
         stats.width = options.width;
         stats.height = options.height;
-        stats.spp = options.spp;
+        stats.spp = args.method == "distributed" && !options.fixed_spp && !options.reference
+                        ? options.spp_max
+                        : options.spp;
+        if (options.reference) {
+            const int batches = mrt::reference_batch_count(options.spp);
+            stats.spp = batches * ((options.spp + batches - 1) / batches);
+        }
+        stats.filter = mrt::to_string(options.filter);
+        stats.passes = out.passes;
+        stats.last_pass_seconds = out.last_pass_seconds;
+        stats.time_budget = options.time_budget;
+        stats.samples = out.samples;
+        stats.std_error = out.std_error;
         stats.threads = options.threads > 0 ? options.threads
                                             : static_cast<int>(std::thread::hardware_concurrency());
         stats.load_seconds = load_seconds;
@@ -113,7 +173,11 @@ int run(const Arguments& args) {
     if (!args.quiet && isatty(STDERR_FILENO)) {
         std::cerr << "mrt-trace: " << args.output.string() << ": " << options.width << "×"
                   << options.height << ", " << out.render_seconds << " s, " << out.rays.total()
-                  << " rays\n";
+                  << " rays";
+        if (out.std_error) {
+            std::cerr << ", standard error " << *out.std_error;
+        }
+        std::cerr << '\n';
     }
     return 0;
 }
@@ -121,18 +185,54 @@ int run(const Arguments& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"mrt-trace: render a scene with the conventional (whitted) ray tracer",
-                 "mrt-trace"};
+    CLI::App app{
+        "mrt-trace: render a scene with the conventional (whitted) or the adaptive "
+        "distributed ray tracer",
+        "mrt-trace"};
     Arguments args;
     app.add_option("scene", args.scene, "Scene file (.json)")->required();
     app.add_option("-o,--output", args.output, "Output image (.exr linear, .png/.jpg sRGB)")
         ->required();
-    app.add_option("--method", args.method, "Tracer")
-        ->check(CLI::IsMember({"whitted"}))
+    app.add_option("--method", args.method,
+                   "Tracer: whitted (conventional) or distributed (adaptive stochastic)")
+        ->check(CLI::IsMember({"whitted", "distributed"}))
         ->default_val("whitted");
-    app.add_option("--spp", args.spp, "Samples per pixel (fixed jittered grid)")
-        ->check(CLI::Range(1, 65536))
-        ->default_val(1);
+    app.add_option("--spp", args.spp,
+                   "Samples per pixel: whitted's fixed jittered grid (default 1, the pixel "
+                   "centre); distributed: one stratified batch, no adaptation; with --reference "
+                   "the reference's count (default 1024)")
+        ->check(CLI::Range(1, kMaxSpp));
+    app.add_option("--spp-initial", args.spp_initial,
+                   "distributed, pass 1: jittered samples in every pixel")
+        ->check(CLI::Range(1, kMaxSpp))
+        ->default_val(2);
+    app.add_option("--spp-max", args.spp_max,
+                   "distributed: most samples any pixel gets (default 16; no cap with "
+                   "--time-budget)")
+        ->check(CLI::Range(1, kMaxSpp));
+    app.add_option("--target-error", args.target_error,
+                   "distributed, pass 2: per-pixel standard error of luminance aimed at")
+        ->check(CLI::PositiveNumber)
+        ->default_val(0.005f);
+    app.add_option("--time-budget", args.time_budget,
+                   "distributed: refine where the variance is highest until SECONDS of "
+                   "rendering are spent")
+        ->check(CLI::PositiveNumber);
+    app.add_flag("--reference", args.reference,
+                 "distributed: ground truth from --spp samples in independent stratified "
+                 "batches; the stats report its standard error");
+    app.add_option("--filter", args.filter,
+                   "Pixel reconstruction filter: box or gaussian[:SIGMA] (SIGMA in pixels, "
+                   "default 0.5)")
+        ->check([](const std::string& text) -> std::string {
+            try {
+                mrt::parse_pixel_filter(text);
+            } catch (const mrt::Error& e) {
+                return e.what();
+            }
+            return {};
+        })
+        ->default_val("box");
     app.add_option("--width", args.width, "Image width (default: the scene camera's)")
         ->check(CLI::Range(1, 65536));
     app.add_option("--height", args.height, "Image height (default: the scene camera's)")
@@ -148,6 +248,7 @@ int main(int argc, char** argv) {
 
     try {
         app.parse(argc, argv);
+        check_method_options(app, args);
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {

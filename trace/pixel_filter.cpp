@@ -2,6 +2,8 @@
 
 #include "common/error.h"
 
+#include <array>
+#include <charconv>
 #include <cstdlib>
 #include <ostream>
 
@@ -28,6 +30,16 @@ PixelFilter parse_pixel_filter(const std::string& text) {
     }
     throw Error("pixel filter: found \"" + text +
                 "\", expected box, gaussian or gaussian:SIGMA with SIGMA in (0, 16] pixels");
+}
+
+std::string to_string(const PixelFilter& f) {
+    if (f.kind == PixelFilter::Kind::Box) {
+        return "box";
+    }
+    // The shortest digits that read back to the same float.
+    std::array<char, 32> digits{};
+    const auto result = std::to_chars(digits.data(), digits.data() + digits.size(), f.sigma);
+    return "gaussian:" + std::string(digits.data(), result.ptr);
 }
 
 std::ostream& operator<<(std::ostream& os, const PixelFilter& f) {

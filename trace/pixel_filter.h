@@ -44,6 +44,9 @@ struct PixelFilter {
 /// Parses "box" or "gaussian" / "gaussian:SIGMA" (σ in pixels, default 0.5); throws mrt::Error.
 PixelFilter parse_pixel_filter(const std::string& text);
 
+/// The spelling parse_pixel_filter reads back to the same filter ("box", "gaussian:0.5").
+std::string to_string(const PixelFilter& f);
+
 std::ostream& operator<<(std::ostream& os, const PixelFilter& f);
 
 }  // namespace mrt

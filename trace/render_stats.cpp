@@ -37,6 +37,16 @@ void write_render_stats(const std::filesystem::path& file, const RenderStats& st
         {"load_seconds", stats.load_seconds},
         {"build_seconds", stats.build_seconds},
         {"render_seconds", stats.render_seconds},
+        {"filter", stats.filter},
+        {"passes", stats.passes},
+        {"last_pass_seconds", stats.last_pass_seconds},
+        {"time_budget", stats.time_budget > 0.0 ? nlohmann::json(stats.time_budget) : nullptr},
+        {"samples", stats.samples},
+        {"mean_spp", stats.width > 0 && stats.height > 0
+                         ? static_cast<double>(stats.samples) /
+                               (static_cast<double>(stats.width) * stats.height)
+                         : 0.0},
+        {"std_error", stats.std_error ? nlohmann::json(*stats.std_error) : nullptr},
         {"rays", stats.rays.total()},
         {"primary_rays", stats.rays.primary},
         {"secondary_rays", stats.rays.secondary},

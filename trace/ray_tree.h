@@ -1,0 +1,171 @@
+#pragma once
+// The recursive ray tree both baselines trace (Whitted 1980; Cook et al. 1984): Phong shading
+// with shadow rays, mirror reflection and refraction weighted by the material coefficients,
+// total internal reflection, a depth limit and weight-based pruning. What differs between the
+// two is only how each light and each secondary direction is chosen, so that is a policy:
+//
+// - CentreSampling (whitted): area lights reduced to their centres (hard shadows), mirror and
+//   refraction directions exactly (roughness ignored).
+// - StochasticSampling (distributed): one uniform point on each elliptical area light (soft
+//   shadows), reflected and refracted directions spread by the material roughness (glossy).
+
+#include "common/sampling.h"
+#include "common/scene.h"
+#include "common/texture.h"
+#include "trace/render.h"
+#include "trace/scene_bvh.h"
+#include "trace/shading.h"
+#include "trace/surface_point.h"
+
+#include <algorithm>
+
+namespace mrt {
+
+struct CentreSampling {
+    LightSample area_light(const EllipticalAreaLight& light, const Vec3f& p) const {
+        return sample_area_light_centre(light, p);
+    }
+    Vec3f spread(const Vec3f& direction, float /*roughness*/) const { return direction; }
+};
+
+class StochasticSampling {
+  public:
+    explicit StochasticSampling(StratifiedSampler& sampler) : m_sampler(sampler) {}
+
+    LightSample area_light(const EllipticalAreaLight& light, const Vec3f& p) {
+        const Vec2f u = m_sampler.next_2d();
+        return sample_area_light(light, p, u.x(), u.y());
+    }
+    Vec3f spread(const Vec3f& direction, float roughness) {
+        if (!(roughness > 0.0f)) {
+            return direction;
+        }
+        const Vec2f u = m_sampler.next_2d();
+        return gaussian_spread_direction(direction, roughness, u.x(), u.y());
+    }
+
+  private:
+    StratifiedSampler& m_sampler;
+};
+
+/// A direction on the wrong side of the geometric surface (a glossy spread or an interpolated
+/// normal sending a reflection into the surface, or a transmission back out) is mirrored about
+/// the tangent plane: the energy stays with the branch instead of being lost or leaking.
+inline Vec3f fold_to_side(const Vec3f& direction, const Vec3f& geometric_normal, bool above) {
+    const float side = direction.dot(geometric_normal);
+    if (above ? side > 0.0f : side < 0.0f) {
+        return direction;
+    }
+    return direction - 2.0f * side * geometric_normal;
+}
+
+template <typename Sampling>
+class RayTree {
+  public:
+    RayTree(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures, int max_depth)
+        : m_scene(scene), m_bvh(bvh), m_textures(textures), m_max_depth(max_depth) {}
+
+    /// Radiance arriving along `ray` (reflection/refraction depth `depth` so far; `weight` is
+    /// the product of the coefficients that scale this ray's contribution to the pixel).
+    Rgb radiance(const Ray& ray, int depth, RayCounters& counters, Sampling& sampling,
+                 float weight = 1.0f) const;
+
+    /// Branches of the ray tree whose contribution to the pixel is scaled below this are not
+    /// traced (Hall & Greenberg 1983, adaptive tree depth control): a tenth of an 8-bit step.
+    static constexpr float kMinimumWeight = 1.0f / 2550.0f;
+
+  private:
+    Rgb direct_light(const SurfacePoint& sp, const Material& material, const Rgb& albedo,
+                     const Vec3f& wo, RayCounters& counters, Sampling& sampling) const;
+
+    const Scene& m_scene;
+    const SceneBvh& m_bvh;
+    const TextureSampler& m_textures;
+    int m_max_depth;
+};
+
+template <typename Sampling>
+Rgb RayTree<Sampling>::direct_light(const SurfacePoint& sp, const Material& material,
+                                    const Rgb& albedo, const Vec3f& wo, RayCounters& counters,
+                                    Sampling& sampling) const {
+    Rgb sum = Rgb::Zero();
+    const auto add = [&](const LightSample& light) {
+        // Lights below the geometric surface never reach it, whatever the shading normal says.
+        const float cos_geometric = sp.geometric_normal.dot(light.wi);
+        const float cos_shading = sp.shading_normal.dot(light.wi);
+        if (cos_geometric <= 0.0f || cos_shading <= 0.0f || (light.irradiance <= 0.0f).all()) {
+            return;
+        }
+        ++counters.shadow;
+        const Ray shadow{sp.spawn_origin(light.wi), light.wi, light.distance};
+        if (m_bvh.occluded(shadow)) {
+            return;
+        }
+        sum += light.irradiance * cos_shading *
+               phong_brdf(material, albedo, sp.shading_normal, light.wi, wo);
+    };
+    for (const PointLight& light : m_scene.point_lights) {
+        add(sample_point_light(light, sp.position));
+    }
+    for (const EllipticalAreaLight& light : m_scene.area_lights) {
+        add(sampling.area_light(light, sp.position));
+    }
+    return sum;
+}
+
+template <typename Sampling>
+Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters,
+                                Sampling& sampling, float weight) const {
+    SceneHit hit;
+    if (!m_bvh.intersect(ray, hit)) {
+        return m_scene.background;
+    }
+    const Vec3f d = ray.direction.normalized();
+    const SurfacePoint sp = make_surface_point(m_scene, hit, d);
+    const Material& material = m_scene.materials[sp.material];
+    const Vec3f wo = -d;
+
+    // Light not mirrored or transmitted is scattered locally (ambient + Phong).
+    const float local_weight = std::max(0.0f, 1.0f - material.reflectivity - material.transparency);
+    const Rgb albedo = m_textures.diffuse(material, sp.uv) * local_weight;
+    Rgb result =
+        m_scene.ambient * albedo + direct_light(sp, material, albedo, wo, counters, sampling);
+    if (depth >= m_max_depth) {
+        return result;
+    }
+
+    float reflect_weight = material.reflectivity;
+    if (material.refracts()) {
+        const float eta = sp.entering ? 1.0f / material.ior : material.ior;
+        if (const auto t = refract(d, sp.shading_normal, eta)) {
+            if (weight * material.transparency >= kMinimumWeight) {
+                ++counters.secondary;
+                const Vec3f spread = fold_to_side(sampling.spread(*t, material.roughness),
+                                                  sp.geometric_normal, false);
+                const Ray refracted{sp.spawn_origin(spread), spread, kInfinity};
+                result += material.transparency * radiance(refracted, depth + 1, counters, sampling,
+                                                           weight * material.transparency);
+            }
+        } else {
+            // Total internal reflection: the transmitted share is mirrored instead.
+            reflect_weight += material.transparency;
+        }
+    }
+    if (reflect_weight > 0.0f && weight * reflect_weight >= kMinimumWeight) {
+        Vec3f mirror = reflect(d, sp.shading_normal);
+        // An interpolated normal can mirror a ray below the geometric surface; there the flat
+        // triangle's own mirror direction is the right one.
+        if (mirror.dot(sp.geometric_normal) <= 0.0f) {
+            mirror = reflect(d, sp.geometric_normal);
+        }
+        const Vec3f r =
+            fold_to_side(sampling.spread(mirror, material.roughness), sp.geometric_normal, true);
+        ++counters.secondary;
+        const Ray reflected{sp.spawn_origin(r), r, kInfinity};
+        result += reflect_weight *
+                  radiance(reflected, depth + 1, counters, sampling, weight * reflect_weight);
+    }
+    return result;
+}
+
+}  // namespace mrt
