@@ -124,4 +124,72 @@ TEST(MrtTraceCli, UnknownOutputExtensionIsRefused) {
     fs::remove_all(dir);
 }
 
+nlohmann::json read_json(const fs::path& file) {
+    std::ifstream in(file);
+    return nlohmann::json::parse(in);
+}
+
+TEST(MrtTraceCli, DistributedReferenceReportsItsStandardError) {
+    const fs::path dir = temp_dir();
+    const TraceRun run = run_trace(scene_path() + " -o " + (dir / "ref.exr").string() +
+                                   " --method distributed --reference --spp 16 --width 24 "
+                                   "--height 16 --filter gaussian:0.75 --stats " +
+                                   (dir / "stats.json").string());
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const nlohmann::json stats = read_json(dir / "stats.json");
+    EXPECT_EQ(stats["method"], "distributed");
+    EXPECT_EQ(stats["filter"], "gaussian:0.75");
+    EXPECT_EQ(stats["spp"], 16);
+    EXPECT_EQ(stats["passes"], 8);
+    EXPECT_EQ(stats["samples"], 16 * 24 * 16);
+    EXPECT_DOUBLE_EQ(stats["mean_spp"].get<double>(), 16.0);
+    ASSERT_TRUE(stats["std_error"].is_number());
+    EXPECT_GT(stats["std_error"].get<double>(), 0.0);
+    fs::remove_all(dir);
+}
+
+TEST(MrtTraceCli, AdaptiveDistributedStatsAndWhittedHasNoStandardError) {
+    const fs::path dir = temp_dir();
+    TraceRun run = run_trace(scene_path() + " -o " + (dir / "d.png").string() +
+                             " --method distributed --spp-initial 1 --spp-max 8 --width 24 "
+                             "--height 16 --stats " +
+                             (dir / "d.json").string());
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    nlohmann::json stats = read_json(dir / "d.json");
+    EXPECT_EQ(stats["passes"], 2);
+    EXPECT_EQ(stats["spp"], 8);
+    EXPECT_GE(stats["mean_spp"].get<double>(), 1.0);
+    EXPECT_LE(stats["mean_spp"].get<double>(), 8.0);
+    EXPECT_TRUE(stats["std_error"].is_null());
+    EXPECT_TRUE(stats["time_budget"].is_null());
+
+    run = run_trace(scene_path() + " -o " + (dir / "w.png").string() +
+                    " --width 24 --height 16 --stats " + (dir / "w.json").string());
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    stats = read_json(dir / "w.json");
+    EXPECT_EQ(stats["filter"], "box");
+    EXPECT_EQ(stats["passes"], 1);
+    EXPECT_EQ(stats["samples"], 24 * 16);
+    EXPECT_TRUE(stats["std_error"].is_null());
+    fs::remove_all(dir);
+}
+
+TEST(MrtTraceCli, OptionsAMethodDoesNotReadAreRefused) {
+    const std::string base = scene_path() + " -o x.png --width 8 ";
+    for (const char* args : {"--time-budget 1", "--reference", "--spp-max 4", "--spp-initial 2",
+                             "--target-error 0.1"}) {
+        const TraceRun run = run_trace(base + args);
+        EXPECT_EQ(run.exit_code, 2) << args;
+        EXPECT_NE(run.output.find("only the distributed method"), std::string::npos) << run.output;
+        EXPECT_EQ(count_lines(run.output), 1) << run.output;
+    }
+    const std::string distributed = base + "--method distributed ";
+    EXPECT_EQ(run_trace(distributed + "--reference --time-budget 1").exit_code, 2);
+    EXPECT_EQ(run_trace(distributed + "--spp 4 --spp-max 8").exit_code, 2);
+    EXPECT_EQ(run_trace(distributed + "--spp-initial 8 --spp-max 4").exit_code, 2);
+    EXPECT_EQ(run_trace(distributed + "--time-budget 0").exit_code, 2);
+    EXPECT_EQ(run_trace(base + "--filter gaussian:0").exit_code, 2);
+    EXPECT_EQ(run_trace(base + "--filter tent").exit_code, 2);
+}
+
 }  // namespace

@@ -4,6 +4,8 @@
 #include "common/sampling.h"
 #include "trace/film.h"
 
+#include <chrono>
+
 namespace mrt {
 
 RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options) {
@@ -13,6 +15,7 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Rende
     const WhittedTracer tracer(scene, bvh, textures, max_depth);
     const int spp = std::max(1, options.spp);
     Film film(options.width, options.height, options.filter);
+    const auto start = std::chrono::steady_clock::now();
     RenderOutput out;
     out.rays = film.add_pass(
         options.threads, "whitted", options.quiet,
@@ -30,6 +33,9 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Rende
     out.image = film.image();
     out.samples = static_cast<std::uint64_t>(spp) * static_cast<std::uint64_t>(options.width) *
                   static_cast<std::uint64_t>(options.height);
+    out.render_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    out.last_pass_seconds = out.render_seconds;
     return out;
 }
 
