@@ -1,0 +1,457 @@
+#include "trace/comparison.h"
+
+#include "common/error.h"
+#include "common/image.h"
+#include "common/image_metrics.h"
+#include "common/montage.h"
+#include "trace/child_process.h"
+#include "trace/comparison_report.h"
+#include "trace/method_spec.h"
+
+#include <fmt/format.h>
+#include <unistd.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <ostream>
+#include <system_error>
+
+namespace mrt {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr const char* kReferenceExr = "reference.exr";
+constexpr const char* kReferencePng = "reference.png";
+constexpr const char* kReferenceRecord = "reference.json";
+constexpr const char* kReferenceStats = "reference-stats.json";
+constexpr const char* kReferenceMethod = "distributed";
+
+/// One entry of the run list: a spec, or a time-budget run of the default set whose spec is
+/// known once the baseline has run.
+struct PlannedRun {
+    std::string spec;
+    const DefaultRun* budget = nullptr;
+};
+
+/// What the comparison passes to every mrt-trace run, after the scene.
+std::vector<std::string> common_arguments(const ComparisonOptions& options,
+                                          const std::string& scene, const fs::path& output,
+                                          const fs::path& stats) {
+    std::vector<std::string> args = {scene,     "--output",     output.string(),
+                                     "--stats", stats.string(), "--quiet"};
+    if (options.width) {
+        args.insert(args.end(), {"--width", std::to_string(*options.width)});
+    }
+    if (options.height) {
+        args.insert(args.end(), {"--height", std::to_string(*options.height)});
+    }
+    // Always explicit, so that the reference's key never depends on mrt-trace's default.
+    args.insert(args.end(), {"--filter", canonical_filter(options.filter.value_or("box"))});
+    args.insert(args.end(), {"--seed", std::to_string(options.seed)});
+    if (options.threads) {
+        args.insert(args.end(), {"--threads", std::to_string(*options.threads)});
+    }
+    return args;
+}
+
+/// Runs mrt-trace; throws naming `what` (a spec, or the reference) and quoting the child's
+/// last line on stderr when it fails.
+ProcessResult run_trace(const ComparisonOptions& options, const std::vector<std::string>& args,
+                        const std::string& what) {
+    ProcessResult result = run_process(options.trace_exe, args);
+    if (!result.succeeded()) {
+        const std::string line = last_line(result.err);
+        throw Error(fmt::format("{}: mrt-trace failed ({}){}", what, describe_exit(result),
+                                line.empty() ? "" : ": \"" + line + "\""));
+    }
+    return result;
+}
+
+json read_stats(const fs::path& file) {
+    std::ifstream in(file);
+    if (!in) {
+        throw Error(file, "", "mrt-trace wrote no stats file");
+    }
+    try {
+        json j = json::parse(in);
+        if (!j.is_object()) {
+            throw Error(file, "", "the stats are not a JSON object");
+        }
+        return j;
+    } catch (const json::parse_error& e) {
+        throw Error(file, fmt::format("byte {}", e.byte), "the stats are not valid JSON");
+    }
+}
+
+double stats_number(const fs::path& file, const json& stats, const char* key) {
+    const auto it = stats.find(key);
+    if (it == stats.end() || !it->is_number()) {
+        throw Error(file, fmt::format("/{}", key), "expected a number in mrt-trace's stats");
+    }
+    return it->get<double>();
+}
+
+template <typename T>
+std::optional<T> optional_stats_number(const json& stats, const char* key) {
+    const auto it = stats.find(key);
+    if (it == stats.end() || !it->is_number()) {
+        return std::nullopt;
+    }
+    return it->get<T>();
+}
+
+void check_size(const Image& image, const fs::path& file, int width, int height,
+                const std::string& expectation) {
+    if (image.width() != width || image.height() != height) {
+        throw Error(file, "",
+                    fmt::format("the image is {}×{}, expected {}×{} ({})", image.width(),
+                                image.height(), width, height, expectation));
+    }
+}
+
+void prepare_out_dir(const fs::path& dir) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (!fs::is_directory(dir, ec)) {
+        throw Error(dir, "", "cannot create the output directory");
+    }
+    if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+        throw Error(dir, "", "the output directory is not writable");
+    }
+}
+
+fs::path checked_scene(const fs::path& scene) {
+    std::error_code ec;
+    if (!fs::exists(scene, ec)) {
+        throw Error(scene, "", "no such scene file");
+    }
+    if (!fs::is_regular_file(scene, ec)) {
+        throw Error(scene, "", "the scene is not a regular file");
+    }
+    return fs::canonical(scene);
+}
+
+/// The runs to make: the given specs, or the default runs of every method mrt-trace offers.
+std::vector<PlannedRun> plan_runs(const ComparisonOptions& options) {
+    std::vector<PlannedRun> plan;
+    if (!options.method_specs.empty()) {
+        for (const std::string& spec : options.method_specs) {
+            parse_method_spec(spec);  // every spec is checked before anything runs
+            plan.push_back({spec, nullptr});
+        }
+        return plan;
+    }
+    const ProcessResult help = run_process(options.trace_exe, {"--help"});
+    const std::vector<std::string> methods = methods_listed_in_help(help.out);
+    if (!help.succeeded() || methods.empty()) {
+        throw Error(options.trace_exe, "",
+                    "cannot tell from --help which methods mrt-trace offers; name them with "
+                    "--method");
+    }
+    const auto offered = [&](const std::string& method) {
+        return std::find(methods.begin(), methods.end(), method) != methods.end();
+    };
+    const bool has_baseline = offered(parse_method_spec(baseline_spec()).method);
+    for (const DefaultRun& run : default_runs()) {
+        if (!offered(run.method)) {
+            continue;
+        }
+        if (run.budget_factor > 0.0) {
+            if (has_baseline) {
+                plan.push_back({"", &run});
+            }
+        } else {
+            plan.push_back({default_run_spec(run), nullptr});
+        }
+    }
+    return plan;
+}
+
+/// A strip showing the error colours from 0 (left) to `error_scale` (right), as tall as a
+/// quarter of the image: the key to the error images of the montage.
+Image error_legend(int width, int height, double error_scale) {
+    const int legend_height = std::max(1, height / 4);
+    Image ramp(width, legend_height);
+    const Image zero(width, legend_height);
+    for (int y = 0; y < legend_height; ++y) {
+        for (int x = 0; x < width; ++x) {
+            const double t = width > 1 ? static_cast<double>(x) / (width - 1) : 1.0;
+            const auto v = static_cast<float>(t * error_scale);
+            ramp.set(x, y, Rgb(v, v, v));
+        }
+    }
+    return error_image(ramp, zero, static_cast<float>(error_scale));
+}
+
+class ComparisonRun {
+  public:
+    ComparisonRun(const ComparisonOptions& options, std::ostream& log)
+        : m_options(options), m_log(log) {}
+
+    Comparison run() {
+        const fs::path scene = checked_scene(m_options.scene);
+        if (!(m_options.error_scale > 0.0) || !std::isfinite(m_options.error_scale)) {
+            throw Error(fmt::format("--error-scale must be a positive number, got {}",
+                                    m_options.error_scale));
+        }
+        m_result.scene = scene.string();
+        m_result.filter = canonical_filter(m_options.filter.value_or("box"));
+        m_result.seed = m_options.seed;
+        m_result.error_scale = m_options.error_scale;
+        const std::vector<PlannedRun> plan = plan_runs(m_options);
+        prepare_out_dir(m_options.out_dir);
+
+        m_total_renders = static_cast<int>(plan.size());
+        prepare_reference(scene);
+        m_result.width = m_reference.width();
+        m_result.height = m_reference.height();
+        m_cells.push_back({m_reference, reference_label(m_result.reference)});
+        m_cells.push_back(
+            {error_legend(m_reference.width(), m_reference.height(), m_options.error_scale),
+             fmt::format("error 0 to {} (mean |difference|)", m_options.error_scale)});
+
+        std::optional<double> baseline_seconds;
+        for (std::size_t i = 0; i < plan.size(); ++i) {
+            std::string spec = plan[i].spec;
+            if (plan[i].budget != nullptr) {
+                spec = budget_run_spec(*plan[i].budget, baseline_seconds.value_or(0.0));
+            }
+            const RunResult& run = render_run(static_cast<int>(i) + 1, spec, scene);
+            if (spec == baseline_spec() && !baseline_seconds) {
+                baseline_seconds = run.render_seconds;
+            }
+        }
+
+        write_results(m_result, m_options.out_dir);
+        write_montage();
+        return m_result;
+    }
+
+  private:
+    void progress_line(const std::string& text) {
+        if (m_options.progress && !m_options.quiet) {
+            m_log << text << std::endl;
+        }
+    }
+
+    void message(const std::string& text) {
+        if (!m_options.quiet) {
+            m_log << "mrt-compare: " << text << std::endl;
+        }
+    }
+
+    ReferenceKey reference_key(const fs::path& scene) const {
+        ReferenceKey key;
+        key.scene = scene.string();
+        key.scene_hash = scene_file_hash(scene);
+        key.width = m_options.width;
+        key.height = m_options.height;
+        key.filter = m_result.filter;
+        key.spp = m_options.reference_spp;
+        key.seed = m_options.seed;
+        return key;
+    }
+
+    /// Whether `image` may be the reference of this comparison (a size given in full must match;
+    /// otherwise every run's image is checked against the reference's size).
+    bool has_requested_size(const Image& image) const {
+        return (!m_options.width || image.width() == *m_options.width) &&
+               (!m_options.height || image.height() == *m_options.height);
+    }
+
+    void check_requested_size(const Image& image, const fs::path& file) const {
+        if (has_requested_size(image)) {
+            return;
+        }
+        std::string requested;
+        if (m_options.width && m_options.height) {
+            requested = fmt::format("{}×{}", *m_options.width, *m_options.height);
+        } else if (m_options.width) {
+            requested = fmt::format("width {}", *m_options.width);
+        } else {
+            requested = fmt::format("height {}", m_options.height.value_or(0));
+        }
+        throw Error(file, "",
+                    fmt::format("the reference is {}×{}, but this comparison is {}", image.width(),
+                                image.height(), requested));
+    }
+
+    void prepare_reference(const fs::path& scene) {
+        ReferenceSummary& summary = m_result.reference;
+        const fs::path dir = m_options.out_dir;
+        summary.image = kReferencePng;
+        if (!m_options.reference_image.empty()) {
+            summary.origin = ReferenceOrigin::Given;
+            summary.exr = m_options.reference_image;
+            m_reference = read_image(m_options.reference_image);
+            check_requested_size(m_reference, m_options.reference_image);
+            fs::path record = m_options.reference_image;
+            record.replace_extension(".json");
+            std::error_code ec;
+            if (fs::exists(record, ec)) {
+                summary.info = read_reference_info(record);
+            }
+        } else {
+            const ReferenceKey key = reference_key(scene);
+            summary.exr = dir / kReferenceExr;
+            if (const auto cached = cached_reference(key)) {
+                summary.origin = ReferenceOrigin::Cached;
+                summary.info = *cached;
+                message(
+                    fmt::format("reusing the cached reference {} (same scene, size, filter, "
+                                "spp and seed)",
+                                summary.exr.string()));
+            } else {
+                summary.origin = ReferenceOrigin::Rendered;
+                render_reference(scene, key);
+            }
+        }
+        write_image(dir / kReferencePng, m_reference);
+    }
+
+    std::optional<ReferenceInfo> cached_reference(const ReferenceKey& key) {
+        const fs::path dir = m_options.out_dir;
+        auto info = cached_reference_info(dir / kReferenceRecord, key);
+        if (!info) {
+            return std::nullopt;
+        }
+        try {
+            Image image = read_image(dir / kReferenceExr);
+            if (image.empty() || !has_requested_size(image)) {
+                return std::nullopt;
+            }
+            m_reference = std::move(image);
+        } catch (const Error&) {
+            return std::nullopt;
+        }
+        return info;
+    }
+
+    void render_reference(const fs::path& scene, const ReferenceKey& key) {
+        const fs::path dir = m_options.out_dir;
+        // Without a record, a render that fails half-way can never be taken for a cached one.
+        std::error_code ec;
+        fs::remove(dir / kReferenceRecord, ec);
+        std::vector<std::string> args =
+            common_arguments(m_options, scene.string(), dir / kReferenceExr, dir / kReferenceStats);
+        args.insert(args.end(), {"--method", kReferenceMethod, "--reference", "--spp",
+                                 std::to_string(m_options.reference_spp)});
+        const std::string what = fmt::format("reference ({} --reference --spp {})",
+                                             kReferenceMethod, m_options.reference_spp);
+        progress_line(fmt::format("[ref] {} ...", what));
+        run_trace(m_options, args, what);
+
+        const json stats = read_stats(dir / kReferenceStats);
+        ReferenceInfo& info = m_result.reference.info;
+        info.spp = optional_stats_number<int>(stats, "spp").value_or(m_options.reference_spp);
+        info.seconds = stats_number(dir / kReferenceStats, stats, "render_seconds");
+        info.std_error = optional_stats_number<double>(stats, "std_error");
+        m_reference = read_image(dir / kReferenceExr);
+        check_requested_size(m_reference, dir / kReferenceExr);
+        write_reference_record(dir / kReferenceRecord, key, info);
+    }
+
+    const RunResult& render_run(int index, const std::string& spec_text, const fs::path& scene) {
+        const MethodSpec spec = parse_method_spec(spec_text);
+        const fs::path dir = m_options.out_dir;
+        const std::string base = fmt::format("{:02}-{}", index, spec_slug(spec_text));
+        RunResult run;
+        run.spec = spec_text;
+        run.exr = base + ".exr";
+        run.image = base + ".png";
+        run.error_image = base + "-error.png";
+        run.stats = base + ".json";
+
+        std::vector<std::string> args =
+            common_arguments(m_options, scene.string(), dir / run.exr, dir / run.stats);
+        const std::vector<std::string> method_args = trace_arguments(spec);
+        args.insert(args.end(), method_args.begin(), method_args.end());
+        progress_line(fmt::format("[{}/{}] {} ...", index, m_total_renders, spec_text));
+        const ProcessResult process = run_trace(m_options, args, spec_text);
+        run.wall_seconds = process.wall_seconds;
+
+        const fs::path stats_file = dir / run.stats;
+        const json stats = read_stats(stats_file);
+        run.method = stats.contains("method") && stats["method"].is_string()
+                         ? stats["method"].get<std::string>()
+                         : spec.method;
+        run.render_seconds = stats_number(stats_file, stats, "render_seconds");
+        run.total_seconds = stats_number(stats_file, stats, "load_seconds") +
+                            stats_number(stats_file, stats, "build_seconds") + run.render_seconds;
+        run.rays = static_cast<std::uint64_t>(stats_number(stats_file, stats, "rays"));
+        run.samples = optional_stats_number<std::uint64_t>(stats, "samples");
+
+        const Image image = read_image(dir / run.exr);
+        check_size(image, dir / run.exr, m_reference.width(), m_reference.height(),
+                   fmt::format("the size of the reference {}", m_result.reference.exr.string()));
+        run.rmse = rmse(image, m_reference);
+        run.psnr = psnr(image, m_reference);
+        run.ssim = ssim(image, m_reference);
+        const Image error =
+            error_image(image, m_reference, static_cast<float>(m_options.error_scale));
+        write_image(dir / run.image, image);
+        write_image(dir / run.error_image, error);
+
+        m_result.runs.push_back(run);
+        m_cells.push_back({image, run_label(run)});
+        m_cells.push_back({error, error_label(run)});
+        return m_result.runs.back();
+    }
+
+    void write_montage() {
+        MontageOptions montage_options;
+        // Two columns (image | error image); cells wide enough for a spec or an error line.
+        montage_options.cell_width = 320;
+        montage_options.warn = [this](const std::string& text) { message(text); };
+        write_image(m_options.out_dir / "montage.png", make_montage(m_cells, 2, montage_options));
+    }
+
+    const ComparisonOptions& m_options;
+    std::ostream& m_log;
+    Comparison m_result;
+    Image m_reference;
+    std::vector<MontageCell> m_cells;
+    int m_total_renders = 0;
+};
+
+}  // namespace
+
+Comparison run_comparison(const ComparisonOptions& options, std::ostream& log) {
+    return ComparisonRun(options, log).run();
+}
+
+fs::path find_trace_executable() {
+    fs::path exe;
+    if (const char* env = std::getenv("MRT_TRACE"); env != nullptr && *env != '\0') {
+        exe = env;
+    } else {
+        std::error_code ec;
+        const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+        if (ec) {
+            throw Error(fs::path("/proc/self/exe"), "",
+                        "cannot find this executable to find mrt-trace beside it; set MRT_TRACE");
+        }
+        exe = self.parent_path() / "mrt-trace";
+    }
+    std::error_code ec;
+    if (!fs::is_regular_file(exe, ec) || ::access(exe.c_str(), X_OK) != 0) {
+        throw Error(exe, "",
+                    "mrt-trace is not an executable file here (it is looked for beside "
+                    "mrt-compare; set MRT_TRACE to use another)");
+    }
+    return exe;
+}
+
+std::ostream& operator<<(std::ostream& os, const RunResult& r) {
+    return os << "RunResult{" << r.spec << ", render " << r.render_seconds << " s, total "
+              << r.total_seconds << " s, wall " << r.wall_seconds << " s, " << r.rays
+              << " rays, RMSE " << r.rmse << ", PSNR " << r.psnr << ", SSIM " << r.ssim << "}";
+}
+
+}  // namespace mrt
