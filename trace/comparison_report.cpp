@@ -1,6 +1,6 @@
 #include "trace/comparison_report.h"
 
-#include "trace/atomic_file.h"
+#include "common/atomic_file.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

@@ -1,7 +1,7 @@
 #include "trace/reference_cache.h"
 
 #include "common/error.h"
-#include "trace/atomic_file.h"
+#include "common/atomic_file.h"
 #include "trace/pixel_filter.h"
 
 #include <fmt/format.h>

@@ -1,5 +1,6 @@
 #include "trace/render_stats.h"
 
+#include "common/atomic_file.h"
 #include "common/error.h"
 
 #include <sys/resource.h>
@@ -56,23 +57,7 @@ void write_render_stats(const std::filesystem::path& file, const RenderStats& st
         {"instanced_triangles", stats.instanced_triangles},
         {"peak_rss_bytes", peak_rss_bytes()},
     };
-    std::filesystem::path temporary = file;
-    temporary += ".tmp";
-    {
-        std::ofstream out(temporary);
-        out << j.dump(2) << '\n';
-        if (!out) {
-            std::error_code ignored;
-            std::filesystem::remove(temporary, ignored);
-            throw Error(file, "", "cannot write the stats file");
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(temporary, file, ec);
-    if (ec) {
-        std::filesystem::remove(temporary, ec);
-        throw Error(file, "", "cannot write the stats file");
-    }
+    write_file_atomically(file, j.dump(2) + "\n", "stats file");
 }
 
 }  // namespace mrt

@@ -1,4 +1,4 @@
-#include "trace/atomic_file.h"
+#include "common/atomic_file.h"
 
 #include "common/error.h"
 
