@@ -82,6 +82,16 @@ class Run:
     image: str  # file names relative to DIR
     error_image: str
 
+    @property
+    def curve(self):
+        """The curve the run belongs to: its method, except that runs stopped by a time budget
+        form their own curve (they allocate samples differently from fixed-count runs, and
+        mixing the two would hide one behind the other)."""
+        options = self.spec.split(":", 1)[1] if ":" in self.spec else ""
+        if any(o.split("=", 1)[0] == "time-budget" for o in options.split(",")):
+            return f"{self.method} (time budget)"
+        return self.method
+
     def seconds(self, time_key):
         return getattr(self, time_key)
 
@@ -290,7 +300,7 @@ def build_curves(results, metric, time_key):
         if value is None or not math.isfinite(value):
             raise ResultsError(f"{results.path}: /runs/{run.index}/{metric}: is "
                                f"{_describe(value)}, which cannot be plotted")
-        methods.setdefault(run.method, []).append(run)
+        methods.setdefault(run.curve, []).append(run)
     return {m: Curve(m, runs, metric, time_key) for m, runs in methods.items()}
 
 
@@ -345,7 +355,8 @@ def derive(results, time_key="render_seconds", baseline_spec=None):
                                  "speedup": max(ta, tb) / min(ta, tb)})
     return {
         "time": time_key,
-        "baseline": {"method": baseline.method, "spec": baseline.spec, "seconds": t_base,
+        "baseline": {"method": baseline.method, "curve": baseline.curve, "spec": baseline.spec,
+                     "seconds": t_base,
                      "rmse": baseline.rmse, "chosen_as": why},
         "levels": levels,
         "time_to_error": time_to_error,
@@ -485,7 +496,7 @@ def draw(results, derived, metric, output):
             if option:
                 ax.annotate(option, (run.seconds(time_key), run.metric(metric)),
                             xytext=(4, 4), textcoords="offset points", fontsize=6, color=colour)
-        if method == baseline.method:
+        if method == baseline.curve:
             continue
         # Where this curve stands at the baseline's time and at the baseline's error.
         for point in ((t_base, curve.value_at(t_base)), (curve.time_to(v_base), v_base)):

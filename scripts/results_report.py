@@ -25,7 +25,7 @@ def load_derived(path, results):
     except json.JSONDecodeError as e:
         raise ResultsError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") \
             from None
-    methods = {run.method for run in results.runs}
+    methods = {run.curve for run in results.runs}
     number = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool)
     optional = lambda v: v is None or number(v)
     try:
@@ -109,7 +109,7 @@ def report(results, derived, command, image_dir, plot, montage):
             for m, v in derived["equal_time"].items()]
     out.append(md_table(["method", "RMSE", "÷ baseline RMSE"], rows, ["---", "--:", "--:"]))
     others = [f"{m} reaches RMSE {fmt3(v)} ({fmt3(v / base['rmse'])}× the baseline's)"
-              for m, v in derived["equal_time"].items() if v is not None and m != base["method"]]
+              for m, v in derived["equal_time"].items() if v is not None and m != base.get("curve", base["method"])]
     if others:
         out += ["", f"In the baseline's {fmt3(base['seconds'])} s, " + "; ".join(others) + "."]
 
@@ -155,6 +155,10 @@ def main(argv=None):
                              "(default: DIR relative to it)")
     parser.add_argument("--plot", default="error_time.png", help="plot file name in --image-dir")
     parser.add_argument("--montage", default="montage.png", help="montage file name in --image-dir")
+    parser.add_argument("--notes", metavar="FILE",
+                        help="hand-written markdown appended under \"Reading the results\" "
+                             "(what the numbers mean, which stays true when they are "
+                             "regenerated)")
     args = parser.parse_args(argv)
     prog = os.path.basename(sys.argv[0])
     markdown_dir = os.path.dirname(os.path.abspath(args.markdown))
@@ -166,6 +170,9 @@ def main(argv=None):
         results = load_results(os.path.join(args.dir, "results.json"))
         derived = load_derived(os.path.join(args.dir, "derived.json"), results)
         text = report(results, derived, args.command, image_dir, args.plot, args.montage)
+        if args.notes:
+            with open(args.notes, encoding="utf-8") as f:
+                text += "\n## Reading the results\n\n" + f.read().strip() + "\n"
         with open(args.markdown, "w", encoding="utf-8") as f:
             f.write(text)
     except ResultsError as e:

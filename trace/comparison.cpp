@@ -200,7 +200,7 @@ class ComparisonRun {
             throw Error(fmt::format("--error-scale must be a positive number, got {}",
                                     m_options.error_scale));
         }
-        m_result.scene = scene.string();
+        m_result.scene = m_options.scene.string();
         m_result.filter = canonical_filter(m_options.filter.value_or("box"));
         m_result.seed = m_options.seed;
         m_result.error_scale = m_options.error_scale;

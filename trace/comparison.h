@@ -66,7 +66,7 @@ struct RunResult {
 
 /// Everything a comparison measured.
 struct Comparison {
-    std::string scene;  ///< Canonical path of the scene file.
+    std::string scene;  ///< The scene file as the user named it (results are read elsewhere).
     int width = 0;      ///< Image size in pixels (the reference's).
     int height = 0;
     std::string filter;  ///< Canonical pixel filter.
