@@ -539,6 +539,19 @@ TEST(MrtCompare, GivenReferenceRunsEverySpecAndRecomputes) {
     EXPECT_TRUE(contains(run.out, "whitted:spp=4")) << run.out;
     EXPECT_TRUE(contains(run.out, " inf ")) << run.out;
     EXPECT_TRUE(contains(run.out, "reference: 32×24")) << run.out;
+
+    // Again in the same directory with other specs: the earlier runs' files go, nothing else.
+    { std::ofstream(out / "notes.txt") << "mine"; }
+    const mrt::ProcessResult again =
+        run_compare(small({scene.string(), "--out", out.string(), "--reference", reference.string(),
+                           "--method", "whitted:spp=4"}));
+    ASSERT_TRUE(again.succeeded()) << again;
+    for (const char* stale : {"01-whitted.png", "01-whitted.exr", "01-whitted-error.png",
+                              "01-whitted.json", "02-whitted-spp-4.png", "02-whitted-spp-4.exr"}) {
+        EXPECT_FALSE(fs::exists(out / stale)) << stale;
+    }
+    EXPECT_TRUE(fs::exists(out / "01-whitted-spp-4.exr"));
+    EXPECT_TRUE(fs::exists(out / "notes.txt"));
     fs::remove_all(dir);
 }
 

@@ -126,6 +126,40 @@ void prepare_out_dir(const fs::path& dir) {
     }
 }
 
+/// Deletes the run files an earlier comparison in `dir` listed in its results.json, so that the
+/// directory never mixes images of two comparisons (specs and their numbering change between
+/// calls). Only plain file names the earlier results named are touched; the cached reference
+/// stays. A missing or unreadable results.json means there is nothing to clean.
+void remove_previous_runs(const fs::path& dir) {
+    std::ifstream in(dir / "results.json");
+    if (!in) {
+        return;
+    }
+    const nlohmann::json previous = nlohmann::json::parse(in, nullptr, false);
+    if (!previous.is_object() || !previous.contains("runs") || !previous["runs"].is_array()) {
+        return;
+    }
+    std::error_code ignored;
+    for (const nlohmann::json& run : previous["runs"]) {
+        if (!run.is_object()) {
+            continue;
+        }
+        for (const char* key : {"image", "error_image", "stats"}) {
+            if (!run.contains(key) || !run[key].is_string()) {
+                continue;
+            }
+            const fs::path name = run[key].get<std::string>();
+            if (name.empty() || name != name.filename()) {
+                continue;  // not a file of ours: we only ever write plain names into DIR
+            }
+            fs::remove(dir / name, ignored);
+            if (std::string(key) == "image") {
+                fs::remove(dir / fs::path(name).replace_extension(".exr"), ignored);
+            }
+        }
+    }
+}
+
 fs::path checked_scene(const fs::path& scene) {
     std::error_code ec;
     if (!fs::exists(scene, ec)) {
@@ -206,6 +240,7 @@ class ComparisonRun {
         m_result.error_scale = m_options.error_scale;
         const std::vector<PlannedRun> plan = plan_runs(m_options);
         prepare_out_dir(m_options.out_dir);
+        remove_previous_runs(m_options.out_dir);
 
         m_total_renders = static_cast<int>(plan.size());
         prepare_reference(scene);
