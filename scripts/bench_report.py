@@ -30,10 +30,11 @@ def kernels(path):
             "kernels": out}
 
 
-def renders(work):
+def renders(work, prefix):
     groups = {}
-    for path in sorted(glob.glob(os.path.join(work, "render-*.json"))):
-        scene, threads, _ = os.path.basename(path)[len("render-"):-len(".json")].rsplit("-", 2)
+    for path in sorted(glob.glob(os.path.join(work, prefix + "-*.json"))):
+        name = os.path.basename(path)[len(prefix) + 1:-len(".json")]
+        scene, threads, _ = name.rsplit("-", 2)
         with open(path) as f:
             groups.setdefault((scene, int(threads)), []).append(json.load(f))
     out = []
@@ -45,6 +46,8 @@ def renders(work):
             "median_build_seconds": statistics.median(r["build_seconds"] for r in runs),
             "median_render_seconds": statistics.median(r["render_seconds"] for r in runs),
             "median_rays_per_second": statistics.median(r["rays_per_second"] for r in runs),
+            "median_samples_per_second": statistics.median(
+                r.get("samples", 0) / r["render_seconds"] for r in runs),
         })
     return out
 
@@ -52,7 +55,8 @@ def renders(work):
 def main():
     work = sys.argv[1]
     report = kernels(os.path.join(work, "kernels.json"))
-    report["whitted_renders"] = renders(work)
+    report["whitted_renders"] = renders(work, "render")
+    report["distributed_renders"] = renders(work, "distributed")
     text = json.dumps(report, indent=2)
     print(text)
     if len(sys.argv) > 2 and sys.argv[2]:
