@@ -532,6 +532,19 @@ def draw(results, derived, metric, output):
 # ---------------------------------------------------------------------------------------------
 
 
+def run_reporting_errors(prog, work):
+    """Runs work() and returns its result, or prints a malformed input or an unwritable file as
+    one line on stderr (no traceback) and returns None."""
+    try:
+        return work()
+    except ResultsError as e:
+        print(f"{prog}: {e}", file=sys.stderr)
+    except OSError as e:
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"{prog}: {where}{e.strerror or e}", file=sys.stderr)
+    return None
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(
         description="Plots error against run time from DIR/results.json (written by "
@@ -549,22 +562,22 @@ def main(argv=None):
     parser.add_argument("--quiet", action="store_true", help="don't print the table")
     args = parser.parse_args(argv)
     prog = os.path.basename(sys.argv[0])
-    try:
+    output = args.output or os.path.join(args.dir, "error_time.png")
+    derived_path = args.derived or os.path.join(args.dir, "derived.json")
+
+    def work():
         results = load_results(os.path.join(args.dir, "results.json"))
         derived = derive(results, TIME_KEYS[args.time], args.baseline)
-        output = args.output or os.path.join(args.dir, "error_time.png")
-        derived_path = args.derived or os.path.join(args.dir, "derived.json")
         draw(results, derived, args.metric, output)
         with open(derived_path, "w", encoding="utf-8") as f:
             json.dump(derived, f, indent=2)
             f.write("\n")
-    except ResultsError as e:
-        print(f"{prog}: {e}", file=sys.stderr)
+        return results, derived
+
+    done = run_reporting_errors(prog, work)
+    if done is None:
         return 1
-    except OSError as e:
-        where = f"{e.filename}: " if e.filename else ""
-        print(f"{prog}: {where}{e.strerror or e}", file=sys.stderr)
-        return 1
+    results, derived = done
     if not args.quiet:
         print(summary(results, derived))
         print(f"\nwrote {output} and {derived_path}")

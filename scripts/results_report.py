@@ -11,7 +11,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from plot_error_time import (ResultsError, build_curves, describe_time_to, fmt3,  # noqa: E402
-                             fmt_count, level_key, load_results)
+                             fmt_count, level_key, load_results, run_reporting_errors)
 
 
 def load_derived(path, results):
@@ -166,7 +166,7 @@ def main(argv=None):
     if image_dir is None:
         image_dir = os.path.relpath(os.path.abspath(args.dir), markdown_dir)
     image_dir = image_dir.replace(os.sep, "/").rstrip("/")
-    try:
+    def work():
         results = load_results(os.path.join(args.dir, "results.json"))
         derived = load_derived(os.path.join(args.dir, "derived.json"), results)
         text = report(results, derived, args.command, image_dir, args.plot, args.montage)
@@ -175,12 +175,9 @@ def main(argv=None):
                 text += "\n## Reading the results\n\n" + f.read().strip() + "\n"
         with open(args.markdown, "w", encoding="utf-8") as f:
             f.write(text)
-    except ResultsError as e:
-        print(f"{prog}: {e}", file=sys.stderr)
-        return 1
-    except OSError as e:
-        where = f"{e.filename}: " if e.filename else ""
-        print(f"{prog}: {where}{e.strerror or e}", file=sys.stderr)
+        return True
+
+    if run_reporting_errors(prog, work) is None:
         return 1
     for name in (args.plot, args.montage):
         if not os.path.exists(os.path.join(markdown_dir, image_dir, name)):
