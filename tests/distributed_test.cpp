@@ -128,6 +128,87 @@ TEST(Distributed, SoftShadowMatchesTheAnalyticPenumbra) {
     }
 }
 
+// The same disc light over a sphere of radius a centred on its axis at height c.
+constexpr double kSphereRadius = 0.3;
+constexpr double kSphereHeight = 2.0;
+
+/// Irradiance at (x, 0, 0) below the disc light with the sphere in the way, by midpoint
+/// quadrature over the disc in polar coordinates with an exact segment–sphere test.
+double sphere_shadow_irradiance(double x) {
+    const int radial = 600;
+    const int angular = 1200;
+    double sum = 0.0;
+    for (int i = 0; i < radial; ++i) {
+        const double r = kLightRadius * (i + 0.5) / radial;
+        for (int j = 0; j < angular; ++j) {
+            const double phi = 2.0 * std::numbers::pi * (j + 0.5) / angular;
+            const double qx = r * std::cos(phi) - x;  // light point relative to the receiver
+            const double qz = r * std::sin(phi);
+            const double d2 = qx * qx + qz * qz + kLightHeight * kLightHeight;
+            // Closest approach of the ray from the receiver towards q to the sphere centre.
+            const double cx = -x;
+            const double t = (cx * qx + kSphereHeight * kLightHeight) / d2;
+            const double px = t * qx - cx;
+            const double py = t * kLightHeight - kSphereHeight;
+            const double pz = t * qz;
+            if (px * px + py * py + pz * pz < kSphereRadius * kSphereRadius) {
+                continue;
+            }
+            sum += kLightHeight * kLightHeight / (d2 * d2) * r;
+        }
+    }
+    const double cell = (kLightRadius / radial) * (2.0 * std::numbers::pi / angular);
+    return kRadiance * sum * cell;
+}
+
+TEST(Distributed, SoftShadowOfASphereMatchesTheDiscLightClosedForm) {
+    // On the axis the sphere hides a coaxial disc of radius ρ = H·tan(asin(a/c)) of the light,
+    // and a coaxial disc of radius r gives E = πL·r²/(H² + r²): the rest is an annulus.
+    const double rho = kLightHeight * std::tan(std::asin(kSphereRadius / kSphereHeight));
+    const auto coaxial = [](double r) {
+        return std::numbers::pi * kRadiance * r * r / (kLightHeight * kLightHeight + r * r);
+    };
+    const double on_axis = coaxial(kLightRadius) - coaxial(rho);
+    EXPECT_NEAR(sphere_shadow_irradiance(0.0), on_axis, 2e-3 * on_axis);
+
+    const Scene scene = parse_scene(R"({
+      "camera": {"eye": [0, 1, 6], "look_at": [0, 0, 0]},
+      "materials": {"floor": {"diffuse": [0.5, 0.5, 0.5]}, "ball": {"diffuse": [1, 1, 1]}},
+      "lights": [{"type": "ellipse", "center": [0, 4, 0], "semi_axis_u": [1, 0, 0],
+                  "semi_axis_v": [0, 0, 1], "radiance": [3, 3, 3]}],
+      "objects": [
+        {"shape": "quad", "size": [40, 40], "material": "floor"},
+        {"shape": "sphere", "radius": 0.3, "segments": 256, "rings": 128, "material": "ball",
+         "transform": {"translate": [0, 2, 0]}}
+      ]
+    })",
+                                    "sphere.json");
+    const SceneBvh bvh(scene);
+    const TextureSampler textures(scene);
+    const RayTree<StochasticSampling> tree(scene, bvh, textures, 0);
+    const double full = disc_irradiance(0.0);
+    const int samples = 4096;
+    int point = 0;
+    // The umbra is gone (ρ < R): on the axis the light shows an annulus; the penumbra reaches
+    // out to where the sphere's image leaves the disc.
+    for (const double x : {0.0, 0.2, 0.45, 0.7, 1.0, 1.5}) {
+        double sum = 0.0;
+        RayCounters counters;
+        for (int k = 0; k < samples; ++k) {
+            StratifiedSampler sampler(23, point, 0, k, samples);
+            StochasticSampling sampling(sampler);
+            const Ray ray{Vec3f(static_cast<float>(x), 0.5f, 0.0f), Vec3f(0.0f, -1.0f, 0.0f),
+                          kInfinity};
+            sum += tree.radiance(ray, 0, counters, sampling)[0];
+        }
+        ++point;
+        const double irradiance = sum / samples * std::numbers::pi / kAlbedo;
+        const double expected = x == 0.0 ? on_axis : sphere_shadow_irradiance(x);
+        EXPECT_NEAR(irradiance, expected, 0.01 * full) << "x = " << x;
+    }
+    EXPECT_LT(on_axis, 0.8 * full);  // the shadow is really there
+}
+
 RenderOptions options_for(const Scene& scene) {
     RenderOptions o;
     o.width = scene.camera.width;
