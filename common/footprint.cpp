@@ -1,0 +1,219 @@
+#include "common/footprint.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace mrt {
+
+namespace {
+
+/// Scales a runaway differential back to the largest length kept.
+Vec3f bounded(const Vec3f& v) {
+    if (!all_finite(v)) {
+        return Vec3f::Zero();
+    }
+    const float squared = v.squaredNorm();
+    if (squared > RayDifferential::kMaxSquaredLength) {
+        return v * std::sqrt(RayDifferential::kMaxSquaredLength / squared);
+    }
+    return v;
+}
+
+/// x moved away from zero to at least `magnitude`, keeping its sign (zero counts positive).
+float away_from_zero(float x, float magnitude) {
+    if (std::abs(x) >= magnitude) {
+        return x;
+    }
+    return x < 0.0f ? -magnitude : magnitude;
+}
+
+}  // namespace
+
+Vec3f RayDifferential::unit_derivative(const Vec3f& d, const Vec3f& dv) {
+    const float dd = d.squaredNorm();
+    if (!(dd > 0.0f)) {
+        return Vec3f::Zero();
+    }
+    return bounded((dv * dd - d * d.dot(dv)) / (dd * std::sqrt(dd)));
+}
+
+RayDifferential RayDifferential::pinhole(const Vec3f& unnormalised_direction, const Vec3f& step_x,
+                                         const Vec3f& step_y) {
+    RayDifferential r;
+    r.dd_dx = unit_derivative(unnormalised_direction, step_x);
+    r.dd_dy = unit_derivative(unnormalised_direction, step_y);
+    return r;
+}
+
+RayDifferential RayDifferential::thin_lens(const Vec3f& lens_to_focus, const Vec3f& step_x,
+                                           const Vec3f& step_y, float focal_distance) {
+    RayDifferential r;
+    r.dd_dx = unit_derivative(lens_to_focus, focal_distance * step_x);
+    r.dd_dy = unit_derivative(lens_to_focus, focal_distance * step_y);
+    return r;
+}
+
+RayDifferential RayDifferential::transfer(const Vec3f& d, float t, const Vec3f& n) const {
+    // A ray grazing the plane has no finite derivative of t; the clamp keeps it large and
+    // finite, and bounded() caps what follows.
+    const float dn = away_from_zero(d.dot(n), 1e-12f);
+    const auto one = [&](const Vec3f& dp, const Vec3f& dd) {
+        const Vec3f moved = dp + t * dd;
+        const float dt = -moved.dot(n) / dn;  // eq. 12
+        return bounded(moved + dt * d);       // eq. 10
+    };
+    RayDifferential r;
+    r.dp_dx = one(dp_dx, dd_dx);
+    r.dp_dy = one(dp_dy, dd_dy);
+    r.dd_dx = dd_dx;
+    r.dd_dy = dd_dy;
+    return r;
+}
+
+RayDifferential RayDifferential::reflect(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx,
+                                         const Vec3f& dn_dy) const {
+    const float d_dot_n = d.dot(n);
+    const auto one = [&](const Vec3f& dd, const Vec3f& dn) {
+        const float d_d_dot_n = dd.dot(n) + d.dot(dn);               // eq. 15
+        return bounded(dd - 2.0f * (d_dot_n * dn + d_d_dot_n * n));  // eq. 14
+    };
+    RayDifferential r;
+    r.dp_dx = dp_dx;
+    r.dp_dy = dp_dy;
+    r.dd_dx = one(dd_dx, dn_dx);
+    r.dd_dy = one(dd_dy, dn_dy);
+    return r;
+}
+
+RayDifferential RayDifferential::refract(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx,
+                                         const Vec3f& dn_dy, float eta) const {
+    const float d_dot_n = d.dot(n);
+    const float k = 1.0f - eta * eta * (1.0f - d_dot_n * d_dot_n);
+    // D'·N of the refracted direction (negative: it leaves through the surface); at the
+    // critical angle it tends to 0 and dμ to infinity, so its magnitude is bounded below.
+    const float t_dot_n = -std::sqrt(std::max(k, 0.0f));
+    const float mu = eta * d_dot_n - t_dot_n;                                        // eq. 16
+    const float dmu_factor = eta - eta * eta * d_dot_n / std::min(t_dot_n, -1e-6f);  // eq. 19
+    const auto one = [&](const Vec3f& dd, const Vec3f& dn) {
+        const float d_d_dot_n = dd.dot(n) + d.dot(dn);
+        const float dmu = dmu_factor * d_d_dot_n;
+        return bounded(eta * dd - (mu * dn + dmu * n));  // eq. 18
+    };
+    RayDifferential r;
+    r.dp_dx = dp_dx;
+    r.dp_dy = dp_dy;
+    r.dd_dx = one(dd_dx, dn_dx);
+    r.dd_dy = one(dd_dy, dn_dy);
+    return r;
+}
+
+RayDifferential RayDifferential::transformed(const Mat3f& linear, const Vec3f& d) const {
+    const Vec3f mapped = linear * d;
+    RayDifferential r;
+    r.dp_dx = bounded(linear * dp_dx);
+    r.dp_dy = bounded(linear * dp_dy);
+    r.dd_dx = unit_derivative(mapped, linear * dd_dx);
+    r.dd_dy = unit_derivative(mapped, linear * dd_dy);
+    return r;
+}
+
+bool RayDifferential::finite() const {
+    return all_finite(dp_dx) && all_finite(dp_dy) && all_finite(dd_dx) && all_finite(dd_dy);
+}
+
+SurfaceDifferential triangle_differential(const Vec3f p[3], const Vec3f n[3], const Vec2f uv[3],
+                                          float b1, float b2, const Vec3f& dp_dx,
+                                          const Vec3f& dp_dy, bool flip) {
+    SurfaceDifferential s;
+    const Vec3f e1 = p[1] - p[0];
+    const Vec3f e2 = p[2] - p[0];
+    const Vec3f g = e1.cross(e2);
+    const float g2 = g.squaredNorm();
+    if (!(g2 > 0.0f) || !std::isfinite(g2)) {
+        return s;
+    }
+    // Gradients of the barycentric coordinates b1, b2 as functions of position in the plane.
+    const Vec3f grad1 = e2.cross(g) / g2;
+    const Vec3f grad2 = g.cross(e1) / g2;
+    const float b0 = 1.0f - b1 - b2;
+    const Vec3f normal = b0 * n[0] + b1 * n[1] + b2 * n[2];
+    const float sign = flip ? -1.0f : 1.0f;
+    const auto one = [&](const Vec3f& dp, Vec3f& dn_out, Vec2f& duv_out) {
+        const float db1 = grad1.dot(dp);
+        const float db2 = grad2.dot(dp);
+        const float db0 = -db1 - db2;
+        const Vec3f dn = db0 * n[0] + db1 * n[1] + db2 * n[2];
+        dn_out = sign * normalised_derivative(normal, dn);
+        duv_out = db0 * uv[0] + db1 * uv[1] + db2 * uv[2];
+        if (!all_finite(duv_out)) {
+            duv_out = Vec2f::Zero();
+        }
+    };
+    one(dp_dx, s.dn_dx, s.duv_dx);
+    one(dp_dy, s.dn_dy, s.duv_dy);
+    return s;
+}
+
+SymmetricEigen2 symmetric_eigen2(float a, float b, float c) {
+    SymmetricEigen2 e;
+    if (!std::isfinite(a) || !std::isfinite(b) || !std::isfinite(c)) {
+        return e;
+    }
+    const double mean = 0.5 * (static_cast<double>(a) + c);
+    const double half_difference = 0.5 * (static_cast<double>(a) - c);
+    const double radius = std::hypot(half_difference, static_cast<double>(b));
+    const double major = mean + radius;
+    // The smaller root from the determinant: mean − radius cancels catastrophically for thin
+    // ellipses.
+    const double det = static_cast<double>(a) * c - static_cast<double>(b) * b;
+    const double minor = major > 0.0 ? det / major : mean - radius;
+    e.major = static_cast<float>(major);
+    e.minor = static_cast<float>(std::max(0.0, std::min(minor, major)));
+    const double angle = 0.5 * std::atan2(2.0 * b, static_cast<double>(a) - c);
+    e.major_axis = Vec2f(static_cast<float>(std::cos(angle)), static_cast<float>(std::sin(angle)));
+    e.minor_axis = Vec2f(-e.major_axis.y(), e.major_axis.x());
+    return e;
+}
+
+FootprintCone FootprintCone::from_differential(const Vec3f& d, const RayDifferential& rd) {
+    FootprintCone cone;
+    orthonormal_basis(d, cone.u, cone.v);
+    // Components along d only move the footprint along the ray: to first order they do not
+    // change its section, so the projection is the dot product with u and v.
+    cone.start_dev << cone.u.dot(rd.dp_dx), cone.u.dot(rd.dp_dy), cone.v.dot(rd.dp_dx),
+        cone.v.dot(rd.dp_dy);
+    cone.incr_dev << cone.u.dot(rd.dd_dx), cone.u.dot(rd.dd_dy), cone.v.dot(rd.dd_dx),
+        cone.v.dot(rd.dd_dy);
+    return cone;
+}
+
+SymmetricEigen2 FootprintCone::ellipse(float t) const {
+    const Mat2f f = at(t);
+    const Mat2f c = f * f.transpose();
+    return symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1));
+}
+
+float FootprintCone::max_diameter(float t) const {
+    return 2.0f * std::sqrt(ellipse(t).major);
+}
+
+float FootprintCone::min_diameter(float t) const {
+    return 2.0f * std::sqrt(ellipse(t).minor);
+}
+
+Mat2f FootprintCone::clamp_anisotropy(const Mat2f& footprint, float max_anisotropy) {
+    const Mat2f c = footprint * footprint.transpose();
+    const SymmetricEigen2 e = symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1));
+    const float floor = e.major / (max_anisotropy * max_anisotropy);
+    if (e.minor >= floor) {
+        return footprint;
+    }
+    // Same ellipse axes, minor widened: columns along the axes (the ellipse is F·Fᵀ, so the
+    // pixel-axis pairing of the columns does not matter to any consumer).
+    Mat2f clamped;
+    clamped.col(0) = std::sqrt(e.major) * e.major_axis;
+    clamped.col(1) = std::sqrt(floor) * e.minor_axis;
+    return clamped;
+}
+
+}  // namespace mrt

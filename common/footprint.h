@@ -1,0 +1,126 @@
+#pragma once
+// The one footprint model of the project (DESIGN.md): Igehy's ray differentials (1999) — how a
+// ray's origin and unit direction change from one pixel to the next in x and y — propagated
+// exactly through transfer, reflection and refraction, and read as Wand & Straßer's linear
+// cone fp(t) = startDev + t·incrDev, the 2×2 matrix that maps a pixel offset to the offset on
+// the plane orthogonal to the ray at distance t (their §4.1). Texture filtering, point level of
+// detail and the soft effects all read this type.
+//
+// Conventions: directions are unit vectors and their differentials are those of the unit
+// vector; equation numbers are Igehy's. Every operation returns finite values: where a
+// derivative does not exist (a ray parallel to the surface, total internal reflection at the
+// critical angle) the differentials are clamped, never NaN.
+
+#include "common/math.h"
+
+namespace mrt {
+
+/// Derivatives of a ray with respect to the image coordinates x and y (per pixel).
+struct RayDifferential {
+    Vec3f dp_dx = Vec3f::Zero();  ///< ∂P/∂x of the origin.
+    Vec3f dp_dy = Vec3f::Zero();
+    Vec3f dd_dx = Vec3f::Zero();  ///< ∂D/∂x of the unit direction.
+    Vec3f dd_dy = Vec3f::Zero();
+
+    /// Derivative of the unit vector d/|d| given the derivative `dv` of the vector d (Igehy
+    /// eq. 8's normalisation): (dv·(d·d) − d·(d·dv)) / |d|³.
+    static Vec3f unit_derivative(const Vec3f& d, const Vec3f& dv);
+
+    /// Pinhole camera (eq. 8): rays from one point along d = view + x·step_x + y·step_y.
+    static RayDifferential pinhole(const Vec3f& unnormalised_direction, const Vec3f& step_x,
+                                   const Vec3f& step_y);
+
+    /// Thin lens: offset rays leave the same lens point and aim at their own point of the plane
+    /// in focus, focal_distance·(view + x·step_x + y·step_y) from the lens centre, so the
+    /// footprint is zero in focus (Wand: callers keep it no smaller than the pixel cone).
+    static RayDifferential thin_lens(const Vec3f& lens_to_focus, const Vec3f& step_x,
+                                     const Vec3f& step_y, float focal_distance);
+
+    /// Transfer along the unit direction d to the plane with normal n at parameter t (eqs. 10,
+    /// 12): the differentials of the hit point, direction unchanged.
+    RayDifferential transfer(const Vec3f& d, float t, const Vec3f& n) const;
+
+    /// Mirror reflection of the unit direction d about the unit shading normal n, whose
+    /// derivatives are dn_dx, dn_dy (eqs. 14, 15). Call on the transferred differential.
+    RayDifferential reflect(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx,
+                            const Vec3f& dn_dy) const;
+
+    /// Refraction of the unit direction d at the unit shading normal n facing against d
+    /// (n·d < 0), eta = n_incident / n_transmitted (eqs. 16–19). The caller has checked that
+    /// the ray is not totally reflected; at the critical angle the derivative of μ is clamped.
+    RayDifferential refract(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx, const Vec3f& dn_dy,
+                            float eta) const;
+
+    /// Through an affine map with linear part `linear` (instances): points and directions
+    /// map by the derivative of the transform; the unit direction d (before the map) is
+    /// renormalised.
+    RayDifferential transformed(const Mat3f& linear, const Vec3f& d) const;
+
+    /// Differentials whose squared length exceeds this are runaway (many bounces through
+    /// curved glass) and are scaled back to it.
+    static constexpr float kMaxSquaredLength = 1e16f;
+
+    bool finite() const;
+};
+
+/// Derivatives of the unit shading normal and of the texture coordinates at a hit, from the
+/// surface's own parameterisation.
+struct SurfaceDifferential {
+    Vec3f dn_dx = Vec3f::Zero();
+    Vec3f dn_dy = Vec3f::Zero();
+    Vec2f duv_dx = Vec2f::Zero();
+    Vec2f duv_dy = Vec2f::Zero();
+};
+
+/// The derivative of the unit vector n/|n| for a derivative dn of the unnormalised n (Igehy's
+/// box in §3.3): (dn·(n·n) − n·(n·dn)) / |n|³.
+inline Vec3f normalised_derivative(const Vec3f& n, const Vec3f& dn) {
+    return RayDifferential::unit_derivative(n, dn);
+}
+
+/// Surface differential of a triangle with world-space vertices p[3], unnormalised vertex
+/// normals n[3] (world space) and uvs uv[3], for a hit at barycentric (b1, b2) whose position
+/// differentials are dp_dx, dp_dy: barycentric coordinates as linear functions of position
+/// (the planes of §3.3), so dN and dT are exact for the interpolation. `flip` negates the
+/// normal derivatives with the normal (a ray from the back side). A degenerate triangle
+/// yields zero derivatives.
+SurfaceDifferential triangle_differential(const Vec3f p[3], const Vec3f n[3], const Vec2f uv[3],
+                                          float b1, float b2, const Vec3f& dp_dx,
+                                          const Vec3f& dp_dy, bool flip);
+
+/// Eigen-decomposition of the symmetric 2×2 matrix [[a, b], [b, c]], stable in closed form:
+/// the larger eigenvalue from the sum, the smaller from the determinant, the axis from atan2.
+struct SymmetricEigen2 {
+    float major = 0.0f;  ///< Larger eigenvalue.
+    float minor = 0.0f;  ///< Smaller eigenvalue.
+    Vec2f major_axis{1.0f, 0.0f};
+    Vec2f minor_axis{0.0f, 1.0f};
+};
+SymmetricEigen2 symmetric_eigen2(float a, float b, float c);
+
+/// Wand & Straßer's cone of a ray: the footprint at distance t along the unit direction is
+/// F(t) = start_dev + t·incr_dev, mapping a pixel offset (dx, dy) to an offset in the plane
+/// orthogonal to the ray, in the basis (u, v) of that plane.
+struct FootprintCone {
+    Vec3f u = Vec3f::UnitX();
+    Vec3f v = Vec3f::UnitY();
+    Mat2f start_dev = Mat2f::Zero();
+    Mat2f incr_dev = Mat2f::Zero();
+
+    /// Projects a ray's differentials onto the plane orthogonal to its unit direction d.
+    static FootprintCone from_differential(const Vec3f& d, const RayDifferential& rd);
+
+    Mat2f at(float t) const { return start_dev + t * incr_dev; }
+
+    /// Axes of the footprint ellipse at t (the image of the unit pixel disc): the eigen-
+    /// decomposition of F·Fᵀ; diameters are 2·√eigenvalue.
+    SymmetricEigen2 ellipse(float t) const;
+    float max_diameter(float t) const;
+    float min_diameter(float t) const;
+
+    /// Wand §5.1: the minor axis grown so that major/minor ≤ max_anisotropy, keeping the
+    /// major axis: returns F' with the same major axis and a wider minor one.
+    static Mat2f clamp_anisotropy(const Mat2f& footprint, float max_anisotropy);
+};
+
+}  // namespace mrt
