@@ -51,4 +51,23 @@ Ray CameraRays::lens_ray(float raster_x, float raster_y, float lens_u, float len
     return Ray{origin, (focus - origin).normalized(), kInfinity};
 }
 
+RayDifferential CameraRays::pinhole_differential(float raster_x, float raster_y,
+                                                 float scale) const {
+    const Vec3f d = m_top_left + raster_x * m_step_x + raster_y * m_step_y;
+    return RayDifferential::pinhole(d, scale * m_step_x, scale * m_step_y);
+}
+
+RayDifferential CameraRays::lens_differential(float raster_x, float raster_y, float lens_u,
+                                              float lens_v, float scale) const {
+    if (m_camera.aperture_radius <= 0.0f) {
+        return pinhole_differential(raster_x, raster_y, scale);
+    }
+    const Vec3f d = m_top_left + raster_x * m_step_x + raster_y * m_step_y;
+    const Vec3f focus = m_camera.eye + m_focal_distance * d;
+    const Vec2f disc = m_camera.aperture_radius * concentric_disc(lens_u, lens_v);
+    const Vec3f origin = m_camera.eye + disc.x() * m_right + disc.y() * m_up;
+    return RayDifferential::thin_lens(focus - origin, scale * m_step_x, scale * m_step_y,
+                                      m_focal_distance);
+}
+
 }  // namespace mrt

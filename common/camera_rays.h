@@ -2,6 +2,7 @@
 // Primary rays of a scene camera: the view frame and the mapping from continuous raster
 // coordinates (x right, y down, pixel (i, j) covering [i, i+1) × [j, j+1)) to rays.
 
+#include "common/footprint.h"
 #include "common/ray.h"
 #include "common/sampling.h"
 #include "common/scene.h"
@@ -22,6 +23,17 @@ class CameraRays {
     /// Thin-lens ray through raster position (x, y) with lens sample (u, v) in [0,1)²
     /// (concentric mapping onto the aperture disc); equals pinhole_ray when the aperture is 0.
     Ray lens_ray(float raster_x, float raster_y, float lens_u, float lens_v) const;
+
+    /// Ray differential of pinhole_ray at (x, y) with respect to the raster coordinates, each
+    /// pixel step scaled by `scale` (1/√spp when a pixel is shared by spp samples).
+    RayDifferential pinhole_differential(float raster_x, float raster_y, float scale = 1.0f) const;
+
+    /// Ray differential of lens_ray(x, y, u, v) across pixels: offset rays share the lens point
+    /// and aim at their own point in focus, so in the focal plane the footprint is the pixel's,
+    /// as for the pinhole. (The spread over the aperture is not a pixel differential: the
+    /// cone tracer adds it as its own cone, zero in focus.)
+    RayDifferential lens_differential(float raster_x, float raster_y, float lens_u, float lens_v,
+                                      float scale = 1.0f) const;
 
     const Vec3f& forward() const { return m_forward; }
     const Vec3f& right() const { return m_right; }

@@ -31,8 +31,9 @@ struct RayDifferential {
                                    const Vec3f& step_y);
 
     /// Thin lens: offset rays leave the same lens point and aim at their own point of the plane
-    /// in focus, focal_distance·(view + x·step_x + y·step_y) from the lens centre, so the
-    /// footprint is zero in focus (Wand: callers keep it no smaller than the pixel cone).
+    /// in focus, focal_distance·(view + x·step_x + y·step_y) from the lens centre; in focus the
+    /// footprint is the pixel's. The aperture's own cone (zero in focus, never letting the
+    /// footprint fall below the pixel cone: Wand) is the cone tracer's to add.
     static RayDifferential thin_lens(const Vec3f& lens_to_focus, const Vec3f& step_x,
                                      const Vec3f& step_y, float focal_distance);
 

@@ -67,6 +67,46 @@ TEST(CameraRays, ThinLensRaysOfOnePixelMeetInTheFocalPlane) {
     }
 }
 
+TEST(CameraRays, DifferentialsMatchNeighbouringRays) {
+    // Pinhole and thin lens, against central differences of the rays themselves. Lens rays of
+    // neighbouring pixels share the lens point and meet the focal plane one pixel apart, as
+    // the pinhole rays do: there the two footprints agree.
+    Camera c = test_camera();
+    c.aperture_radius = 0.25f;
+    c.focal_distance = 4.0f;
+    const CameraRays rays(c, 200, 100);
+    const float x = 37.3f, y = 81.9f, h = 0.01f;
+    const RayDifferential pin = rays.pinhole_differential(x, y);
+    const Vec3f fd_x =
+        (rays.pinhole_ray(x + h, y).direction - rays.pinhole_ray(x - h, y).direction) / (2 * h);
+    const Vec3f fd_y =
+        (rays.pinhole_ray(x, y + h).direction - rays.pinhole_ray(x, y - h).direction) / (2 * h);
+    EXPECT_LT((pin.dd_dx - fd_x).norm(), 1e-3f * fd_x.norm());
+    EXPECT_LT((pin.dd_dy - fd_y).norm(), 1e-3f * fd_y.norm());
+    EXPECT_EQ(pin.dp_dx, Vec3f::Zero());
+    // Half the step for four samples a pixel.
+    EXPECT_LT((rays.pinhole_differential(x, y, 0.5f).dd_dx - 0.5f * pin.dd_dx).norm(), 1e-7f);
+
+    const RayDifferential lens = rays.lens_differential(x, y, 0.2f, 0.7f);
+    const Vec3f lx = (rays.lens_ray(x + h, y, 0.2f, 0.7f).direction -
+                      rays.lens_ray(x - h, y, 0.2f, 0.7f).direction) /
+                     (2 * h);
+    EXPECT_LT((lens.dd_dx - lx).norm(), 1e-3f * lx.norm());
+    const Ray r = rays.lens_ray(x, y, 0.2f, 0.7f);
+    const float t_focus = 4.0f / r.direction.dot(rays.forward());
+    const FootprintCone cone = FootprintCone::from_differential(r.direction, lens);
+    const FootprintCone pinhole_cone =
+        FootprintCone::from_differential(rays.pinhole_ray(x, y).direction, pin);
+    const Ray centre = rays.pinhole_ray(x, y);
+    const float t_pinhole = 4.0f / centre.direction.dot(rays.forward());
+    EXPECT_NEAR(cone.max_diameter(t_focus), pinhole_cone.max_diameter(t_pinhole),
+                0.02f * pinhole_cone.max_diameter(t_pinhole));
+    // No aperture: the lens differential is the pinhole's.
+    const CameraRays pinhole_rays(test_camera(), 200, 100);
+    EXPECT_EQ(pinhole_rays.lens_differential(x, y, 0.2f, 0.7f).dd_dx,
+              pinhole_rays.pinhole_differential(x, y).dd_dx);
+}
+
 TEST(CameraRays, ConcentricDiscIsAreaPreserving) {
     // A uniform grid over the square must land uniformly on the disc: E[r²] = 1/2 and a quarter
     // of the samples inside radius 1/2.
