@@ -49,7 +49,7 @@ struct EllipticalAreaLight {
 /// An image texture, referred to by materials.
 struct Texture {
     std::filesystem::path path;  ///< Resolved absolute path of the image file.
-    bool srgb = true;            ///< Linearise with the sRGB curve on lookup (8-bit colour images).
+    bool srgb = true;            ///< Linearise with the sRGB curve when loaded (8-bit colour images).
 };
 
 /// Phong-style material of the paper's scenes, plus reflection, refraction and roughness.

@@ -3,63 +3,337 @@
 #include "common/error.h"
 #include "common/image.h"
 
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imageio.h>
 #include <OpenImageIO/texture.h>
+#include <fmt/format.h>
 
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <ostream>
+#include <string>
+#include <system_error>
+#include <utility>
 #include <vector>
 
 namespace mrt {
 
-struct TextureSampler::Impl {
-    std::shared_ptr<OIIO::TextureSystem> system;
-    std::vector<OIIO::TextureSystem::TextureHandle*> handles;
-    std::vector<bool> srgb;
-    std::vector<int> channels;
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::array<std::pair<TextureFilter, const char*>, 4> kFilterNames{{
+    {TextureFilter::None, "none"},
+    {TextureFilter::Distance, "distance"},
+    {TextureFilter::Trilinear, "trilinear"},
+    {TextureFilter::Anisotropic, "anisotropic"},
+}};
+
+/// Longest derivative passed to OpenImageIO, in texture widths. A footprint as wide as the
+/// texture already averages all of it; longer ones only cost time (FOOTPRINT-NOTES: clamping
+/// huge derivatives gave the same image in a third of the time).
+constexpr float kMaxDerivativeLength = 1.0f;
+
+/// OpenImageIO can queue several messages separated by newlines; ours are one line each.
+std::string one_line(std::string message) {
+    while (!message.empty() && std::isspace(static_cast<unsigned char>(message.back())) != 0) {
+        message.pop_back();
+    }
+    std::replace(message.begin(), message.end(), '\n', ' ');
+    return message.empty() ? "unknown OpenImageIO error" : message;
+}
+
+/// `d` shortened to at most kMaxDerivativeLength. The length is taken in double: in float,
+/// d·d overflows from |d| ~ 1e19 and even hypot overflows near FLT_MAX, and an infinite length
+/// would turn the clamp into a zero footprint.
+Vec2f clamp_length(const Vec2f& d) {
+    const double length = std::hypot(static_cast<double>(d.x()), static_cast<double>(d.y()));
+    if (length <= kMaxDerivativeLength) {
+        return d;
+    }
+    const double scale = kMaxDerivativeLength / length;
+    return {static_cast<float>(d.x() * scale), static_cast<float>(d.y() * scale)};
+}
+
+/// The footprint as OpenImageIO wants it: (s, t) derivatives with t = 1 − v pointing down the
+/// image, so the v components change sign. A non-finite derivative makes the whole footprint
+/// unknown, which becomes a point sample (zero); long ones are clamped.
+struct StFootprint {
+    Vec2f dst_dx{0.0f, 0.0f};
+    Vec2f dst_dy{0.0f, 0.0f};
 };
 
-TextureSampler::TextureSampler(const Scene& scene) : m_impl(std::make_unique<Impl>()) {
+StFootprint st_footprint(const UvFootprint& footprint) {
+    if (!all_finite(footprint.duv_dx) || !all_finite(footprint.duv_dy)) {
+        return {};
+    }
+    const Vec2f dx(footprint.duv_dx.x(), -footprint.duv_dx.y());
+    const Vec2f dy(footprint.duv_dy.x(), -footprint.duv_dy.y());
+    return {clamp_length(dx), clamp_length(dy)};
+}
+
+/// A temporary directory, removed with its contents on destruction.
+class TemporaryDirectory {
+  public:
+    TemporaryDirectory() {
+        std::error_code ec;
+        const fs::path parent = fs::temp_directory_path(ec);
+        if (ec) {
+            throw Error("cannot find a temporary directory for mip-mapped textures ($TMPDIR): " +
+                        ec.message());
+        }
+        std::string pattern = (parent / "mrt-textures-XXXXXX").string();
+        if (::mkdtemp(pattern.data()) == nullptr) {
+            throw Error(parent, "",
+                        fmt::format("cannot create a directory for mip-mapped textures: {}",
+                                    std::generic_category().message(errno)));
+        }
+        m_path = pattern;
+    }
+    ~TemporaryDirectory() {
+        std::error_code ignored;
+        fs::remove_all(m_path, ignored);
+    }
+    TemporaryDirectory(const TemporaryDirectory&) = delete;
+    TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
+
+    const fs::path& path() const { return m_path; }
+
+  private:
+    fs::path m_path;
+};
+
+/// Number of colour channels looked up: 1 for grey (+ alpha), 3 for RGB (+ anything).
+int colour_channels(int file_channels) {
+    return file_channels >= 3 ? 3 : 1;
+}
+
+/// Pixel type of the mip-map (an OpenEXR file, which stores half and float): 8-bit and half
+/// values become half floats, finer than 8 bits at every brightness, which linearised 8-bit
+/// values need in the dark; everything else becomes float.
+OIIO::TypeDesc mipmap_format(OIIO::TypeDesc source) {
+    const auto base = static_cast<OIIO::TypeDesc::BASETYPE>(source.basetype);
+    const bool half_suffices = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8 ||
+                               base == OIIO::TypeDesc::HALF;
+    return half_suffices ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT;
+}
+
+/// The file the TextureSystem reads for `texture`: the texture itself when it is already a tiled
+/// mip-map needing no linearisation, otherwise a linear, tiled, box-filtered mip-map written as
+/// `output` (see texture.h for why).
+fs::path prepare_mipmap(const Texture& texture, const fs::path& output) {
+    const fs::path& file = texture.path;
+    // Straight alpha, as read_image: dropping alpha must leave the colours intact.
+    OIIO::ImageSpec open_config;
+    open_config.attribute("oiio:UnassociatedAlpha", 1);
+    std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(file.string(), &open_config);
+    if (!in) {
+        throw Error(file, "", "cannot read texture: " + one_line(OIIO::geterror()));
+    }
+    const OIIO::ImageSpec spec = in->spec();
+    if (spec.deep || spec.nchannels < 1 || spec.width < 1 || spec.height < 1 || spec.depth > 1) {
+        throw Error(
+            file, "",
+            fmt::format("cannot read texture: unsupported layout ({}×{}, {} channels{})",
+                        spec.width, spec.height, spec.nchannels, spec.deep ? ", deep" : ""));
+    }
+    const bool mipmapped = spec.tile_width > 0 && in->seek_subimage(0, 1);
+    if (mipmapped && !texture.srgb) {
+        return file;
+    }
+
+    const int channels = colour_channels(spec.nchannels);
+    const std::size_t count = static_cast<std::size_t>(spec.width) *
+                              static_cast<std::size_t>(spec.height) *
+                              static_cast<std::size_t>(channels);
+    std::vector<float> pixels(count);
+    if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data())) {
+        throw Error(file, "", "cannot read texture: " + one_line(in->geterror()));
+    }
+    in->close();
+    // Linearise before any filtering: the mip levels must average light, not encoded values.
+    // Non-finite texels would spread into every level above them; they become black.
+    for (float& v : pixels) {
+        v = std::isfinite(v) ? (texture.srgb ? srgb_to_linear(v) : v) : 0.0f;
+    }
+
+    const OIIO::ImageSpec linear_spec(spec.width, spec.height, channels, OIIO::TypeDesc::FLOAT);
+    const OIIO::ImageBuf linear(linear_spec, pixels.data());
+    OIIO::ImageSpec config;
+    config.format = mipmap_format(spec.format);
+    config.tile_width = 64;
+    config.tile_height = 64;
+    config.tile_depth = 1;
+    config.attribute("wrapmodes", "periodic,periodic");
+    // Each level the 2×2 (or, for odd sizes, weighted) box average of the one below, as in
+    // Williams's mip-map; the default bilinear resampling would point-sample odd sizes.
+    config.attribute("maketx:filtername", "box");
+    // The hash only serves OpenImageIO's de-duplication of identical files; skip its cost.
+    config.attribute("maketx:hash", 0);
+    if (!OIIO::ImageBufAlgo::make_texture(OIIO::ImageBufAlgo::MakeTxTexture, linear,
+                                          output.string(), config)) {
+        throw Error(file, "", "cannot mip-map texture: " + one_line(OIIO::geterror()));
+    }
+    return output;
+}
+
+/// Source of unique sampler ids for the per-thread cache below (never reused, unlike addresses).
+std::atomic<std::uint64_t> g_next_sampler_id{1};
+
+/// The calling thread's OpenImageIO state for the sampler it used last. OpenImageIO would find
+/// it itself from a null pointer, through a per-thread map lookup on every call.
+struct ThreadInfoCache {
+    std::uint64_t sampler = 0;
+    OIIO::TextureSystem::Perthread* info = nullptr;
+};
+thread_local ThreadInfoCache t_thread_info;
+
+}  // namespace
+
+TextureFilter parse_texture_filter(const std::string& text) {
+    for (const auto& [filter, name] : kFilterNames) {
+        if (text == name) {
+            return filter;
+        }
+    }
+    throw Error("texture filter: found \"" + text +
+                "\", expected none, distance, trilinear or anisotropic");
+}
+
+std::string to_string(TextureFilter filter) {
+    for (const auto& [f, name] : kFilterNames) {
+        if (f == filter) {
+            return name;
+        }
+    }
+    return "unknown";
+}
+
+std::ostream& operator<<(std::ostream& os, TextureFilter filter) {
+    return os << to_string(filter);
+}
+
+std::ostream& operator<<(std::ostream& os, const UvFootprint& footprint) {
+    return os << "UvFootprint{duv_dx (" << footprint.duv_dx.x() << ", " << footprint.duv_dx.y()
+              << "), duv_dy (" << footprint.duv_dy.x() << ", " << footprint.duv_dy.y() << ")}";
+}
+
+struct TextureSampler::Impl {
+    std::uint64_t id = g_next_sampler_id.fetch_add(1);
+    /// Declared before the system, so the files are removed after the system has closed them.
+    std::unique_ptr<TemporaryDirectory> mipmaps;
+    std::shared_ptr<OIIO::TextureSystem> system;
+    std::vector<OIIO::TextureSystem::TextureHandle*> handles;
+    std::vector<int> channels;
+    /// Options of each filter, indexed by TextureFilter; copied per lookup because
+    /// TextureSystem::texture takes them by non-const reference.
+    std::array<OIIO::TextureOpt, kFilterNames.size()> options;
+
+    Impl() {
+        for (OIIO::TextureOpt& o : options) {
+            o.swrap = OIIO::TextureOpt::WrapPeriodic;
+            o.twrap = OIIO::TextureOpt::WrapPeriodic;
+            o.interpmode = OIIO::TextureOpt::InterpBilinear;
+        }
+        options[static_cast<std::size_t>(TextureFilter::None)].mipmode =
+            OIIO::TextureOpt::MipModeNoMIP;
+        options[static_cast<std::size_t>(TextureFilter::Distance)].mipmode =
+            OIIO::TextureOpt::MipModeTrilinear;
+        options[static_cast<std::size_t>(TextureFilter::Trilinear)].mipmode =
+            OIIO::TextureOpt::MipModeTrilinear;
+        OIIO::TextureOpt& aniso = options[static_cast<std::size_t>(TextureFilter::Anisotropic)];
+        aniso.mipmode = OIIO::TextureOpt::MipModeAniso;
+        aniso.anisotropic = static_cast<int>(kMaxAnisotropy);
+        aniso.conservative_filter = true;
+    }
+
+    OIIO::TextureSystem::Perthread* thread_info() const {
+        if (t_thread_info.sampler != id) {
+            t_thread_info = {id, system->get_perthread_info()};
+        }
+        return t_thread_info.info;
+    }
+
+    Rgb sample(int index, const Vec2f& uv, const UvFootprint& footprint,
+               TextureFilter filter) const {
+        const auto i = static_cast<std::size_t>(index);
+        OIIO::TextureOpt opt = options[static_cast<std::size_t>(filter)];
+        // Image rows run top to bottom while v runs bottom to top. A non-finite coordinate would
+        // make every interpolation weight NaN; it reads the corner instead.
+        const float s = std::isfinite(uv.x()) ? uv.x() : 0.0f;
+        const float t = std::isfinite(uv.y()) ? 1.0f - uv.y() : 1.0f;
+        StFootprint st;
+        switch (filter) {
+            case TextureFilter::None:
+                break;
+            case TextureFilter::Distance:
+            case TextureFilter::Trilinear: {
+                // Eq. 26: one square filter as wide as the longer derivative. OpenImageIO's
+                // trilinear mode takes max(|ds|, |dt|) over both derivatives, which would
+                // underestimate a diagonal footprint by up to √2, so it gets the square itself.
+                const StFootprint d = st_footprint(footprint);
+                const float width = std::max(d.dst_dx.norm(), d.dst_dy.norm());
+                st = {Vec2f(width, 0.0f), Vec2f(0.0f, width)};
+                break;
+            }
+            case TextureFilter::Anisotropic:
+                st = st_footprint(footprint);
+                break;
+        }
+        float result[3] = {0.0f, 0.0f, 0.0f};
+        const int nchannels = channels[i];
+        system->texture(handles[i], thread_info(), opt, s, t, st.dst_dx.x(), st.dst_dx.y(),
+                        st.dst_dy.x(), st.dst_dy.y(), nchannels, result);
+        if (nchannels == 1) {
+            result[1] = result[2] = result[0];
+        }
+        return {result[0], result[1], result[2]};
+    }
+};
+
+TextureSampler::TextureSampler(const Scene& scene, TextureFilter filter)
+    : m_impl(std::make_unique<Impl>()), m_filter(filter) {
     if (scene.textures.empty()) {
         return;
     }
+    m_impl->mipmaps = std::make_unique<TemporaryDirectory>();
     m_impl->system = std::shared_ptr<OIIO::TextureSystem>(
         OIIO::TextureSystem::create(false),
         [](OIIO::TextureSystem* ts) { OIIO::TextureSystem::destroy(ts); });
-    for (const Texture& texture : scene.textures) {
-        const OIIO::ustring name(texture.path.string());
+    // Files used in place keep straight alpha as stored, like the converted ones.
+    m_impl->system->attribute("unassociatedalpha", 1);
+    for (std::size_t i = 0; i < scene.textures.size(); ++i) {
+        const Texture& texture = scene.textures[i];
+        const fs::path file =
+            prepare_mipmap(texture, m_impl->mipmaps->path() / fmt::format("{}.exr", i));
+        const OIIO::ustring name(file.string());
         OIIO::TextureSystem::TextureHandle* handle = m_impl->system->get_texture_handle(name);
         const OIIO::ImageSpec* spec =
             handle != nullptr ? m_impl->system->imagespec(handle, nullptr, 0) : nullptr;
         if (spec == nullptr) {
-            std::string why = m_impl->system->geterror();
-            throw Error(texture.path, "", "cannot read texture" + (why.empty() ? "" : ": " + why));
+            const std::string why = one_line(m_impl->system->geterror());
+            throw Error(texture.path, "", "cannot read texture: " + why);
         }
         m_impl->handles.push_back(handle);
-        m_impl->srgb.push_back(texture.srgb);
-        m_impl->channels.push_back(spec->nchannels);
+        m_impl->channels.push_back(colour_channels(spec->nchannels));
     }
 }
 
 TextureSampler::~TextureSampler() = default;
 
 Rgb TextureSampler::lookup(int index, const Vec2f& uv) const {
-    const auto i = static_cast<std::size_t>(index);
-    OIIO::TextureOpt options;
-    options.swrap = OIIO::TextureOpt::WrapPeriodic;
-    options.twrap = OIIO::TextureOpt::WrapPeriodic;
-    options.mipmode = OIIO::TextureOpt::MipModeNoMIP;
-    options.interpmode = OIIO::TextureOpt::InterpBilinear;
-    float result[3] = {0.0f, 0.0f, 0.0f};
-    const int nchannels = std::min(3, m_impl->channels[i]);
-    // Image rows run top to bottom while v runs bottom to top.
-    m_impl->system->texture(m_impl->handles[i], nullptr, options, uv.x(), 1.0f - uv.y(), 0.0f, 0.0f,
-                            0.0f, 0.0f, nchannels, result);
-    if (nchannels == 1) {
-        result[1] = result[2] = result[0];
-    }
-    Rgb c(result[0], result[1], result[2]);
-    if (m_impl->srgb[i]) {
-        c = Rgb(srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]));
-    }
-    return c;
+    return m_impl->sample(index, uv, UvFootprint{}, TextureFilter::None);
+}
+
+Rgb TextureSampler::lookup(int index, const Vec2f& uv, const UvFootprint& footprint) const {
+    return m_impl->sample(index, uv, footprint, m_filter);
 }
 
 }  // namespace mrt
