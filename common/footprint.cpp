@@ -149,6 +149,12 @@ SurfaceDifferential triangle_differential(const Vec3f p[3], const Vec3f n[3], co
             duv_out = Vec2f::Zero();
         }
     };
+    const float uv_area = std::abs((uv[1] - uv[0]).x() * (uv[2] - uv[0]).y() -
+                                   (uv[1] - uv[0]).y() * (uv[2] - uv[0]).x());
+    s.uv_per_length = std::sqrt(uv_area / std::sqrt(g2));
+    if (!std::isfinite(s.uv_per_length)) {
+        s.uv_per_length = 0.0f;
+    }
     one(dp_dx, s.dn_dx, s.duv_dx);
     one(dp_dy, s.dn_dy, s.duv_dy);
     return s;

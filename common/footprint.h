@@ -71,6 +71,9 @@ struct SurfaceDifferential {
     Vec3f dn_dy = Vec3f::Zero();
     Vec2f duv_dx = Vec2f::Zero();
     Vec2f duv_dy = Vec2f::Zero();
+    /// Texture-space length per unit of surface length, √(uv area / area) of the triangle:
+    /// turns an isotropic world-space footprint into texture space.
+    float uv_per_length = 0.0f;
 };
 
 /// The derivative of the unit vector n/|n| for a derivative dn of the unnormalised n (Igehy's

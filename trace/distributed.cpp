@@ -41,7 +41,7 @@ class DistributedRenderer {
     DistributedRenderer(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options)
         : m_options(options),
           m_camera(scene.camera, options.width, options.height),
-          m_textures(scene),
+          m_textures(scene, options.texture_filter),
           m_tree(scene, bvh, m_textures,
                  options.max_depth >= 0 ? options.max_depth : scene.max_depth),
           m_film(options.width, options.height, options.filter),
@@ -144,8 +144,15 @@ class DistributedRenderer {
         const float ry = static_cast<float>(y) + position.y();
         ++counters.primary;
         StochasticSampling sampling(sampler);
-        Rgb radiance =
-            m_tree.radiance(m_camera.lens_ray(rx, ry, lens.x(), lens.y()), 0, counters, sampling);
+        const Ray ray = m_camera.lens_ray(rx, ry, lens.x(), lens.y());
+        Rgb radiance;
+        if (m_tree.wants_footprints()) {
+            const RayFootprint footprint = RayFootprint::camera(
+                m_camera.lens_differential(rx, ry, lens.x(), lens.y(), footprint_scale(count)));
+            radiance = m_tree.radiance(ray, 0, counters, sampling, 1.0f, &footprint);
+        } else {
+            radiance = m_tree.radiance(ray, 0, counters, sampling);
+        }
         if (!radiance.allFinite()) {
             radiance = Rgb::Zero();
         }

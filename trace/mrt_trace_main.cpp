@@ -40,6 +40,7 @@ struct Arguments {
     double time_budget = 0.0;
     bool reference = false;
     std::string filter = "box";
+    std::string texture_filter = "anisotropic";
     std::optional<int> width;
     std::optional<int> height;
     int threads = 0;
@@ -120,6 +121,7 @@ int run(const Arguments& args) {
     mrt::RenderOptions options;
     std::tie(options.width, options.height) = image_size(scene.camera, args);
     options.filter = mrt::parse_pixel_filter(args.filter);
+    options.texture_filter = mrt::parse_texture_filter(args.texture_filter);
     options.spp = args.spp.value_or(args.reference ? kDefaultReferenceSpp : 1);
     options.fixed_spp = args.spp.has_value();
     options.spp_initial = args.spp_initial;
@@ -155,6 +157,7 @@ int run(const Arguments& args) {
             stats.spp = batches * ((options.spp + batches - 1) / batches);
         }
         stats.filter = mrt::to_string(options.filter);
+        stats.texture_filter = mrt::to_string(options.texture_filter);
         stats.passes = out.passes;
         stats.last_pass_seconds = out.last_pass_seconds;
         stats.time_budget = options.time_budget;
@@ -233,6 +236,12 @@ int main(int argc, char** argv) {
             return {};
         })
         ->default_val("box");
+    app.add_option("--texture-filter", args.texture_filter,
+                   "Texture filtering (Igehy 1999): none (bilinear, full resolution), distance "
+                   "(mip level from the distance travelled), trilinear (isotropic, from the ray "
+                   "differentials) or anisotropic (from the differentials' parallelogram)")
+        ->check(CLI::IsMember({"none", "distance", "trilinear", "anisotropic"}))
+        ->default_val("anisotropic");
     app.add_option("--width", args.width, "Image width (default: the scene camera's)")
         ->check(CLI::Range(1, 65536));
     app.add_option("--height", args.height, "Image height (default: the scene camera's)")

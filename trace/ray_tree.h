@@ -9,6 +9,7 @@
 // - StochasticSampling (distributed): one uniform point on each elliptical area light (soft
 //   shadows), reflected and refracted directions spread by the material roughness (glossy).
 
+#include "common/footprint.h"
 #include "common/sampling.h"
 #include "common/scene.h"
 #include "common/texture.h"
@@ -18,6 +19,7 @@
 #include "trace/surface_point.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace mrt {
 
@@ -59,6 +61,26 @@ inline Vec3f fold_to_side(const Vec3f& direction, const Vec3f& geometric_normal,
     return direction - 2.0f * side * geometric_normal;
 }
 
+/// What a ray carries for texture filtering (Igehy §4): its differentials, and for the
+/// `distance` filter the distance travelled before its origin and the camera's angular pixel
+/// spread. Rays without one (filter `none`, untextured scenes) skip the footprint work.
+struct RayFootprint {
+    RayDifferential differential;
+    float distance = 0.0f;
+    float spread = 0.0f;
+
+    /// A camera ray's footprint.
+    static RayFootprint camera(const RayDifferential& differential) {
+        return {differential, 0.0f, std::max(differential.dd_dx.norm(), differential.dd_dy.norm())};
+    }
+};
+
+/// Pixel differentials shrink with the samples sharing a pixel, but never below an eighth of a
+/// pixel, so textures are not under-filtered at high sample counts (pbrt-v4's rule).
+inline float footprint_scale(int samples_per_pixel) {
+    return std::max(0.125f, 1.0f / std::sqrt(static_cast<float>(std::max(1, samples_per_pixel))));
+}
+
 template <typename Sampling>
 class RayTree {
   public:
@@ -68,7 +90,13 @@ class RayTree {
     /// Radiance arriving along `ray` (reflection/refraction depth `depth` so far; `weight` is
     /// the product of the coefficients that scale this ray's contribution to the pixel).
     Rgb radiance(const Ray& ray, int depth, RayCounters& counters, Sampling& sampling,
-                 float weight = 1.0f) const;
+                 float weight = 1.0f, const RayFootprint* footprint = nullptr) const;
+
+    /// Whether rays should carry footprints: the texture filter reads them and there is a
+    /// texture to filter.
+    bool wants_footprints() const {
+        return m_textures.filter() != TextureFilter::None && !m_scene.textures.empty();
+    }
 
     /// Branches of the ray tree whose contribution to the pixel is scaled below this are not
     /// traced (Hall & Greenberg 1983, adaptive tree depth control): a tenth of an 8-bit step.
@@ -115,7 +143,8 @@ Rgb RayTree<Sampling>::direct_light(const SurfacePoint& sp, const Material& mate
 
 template <typename Sampling>
 Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters,
-                                Sampling& sampling, float weight) const {
+                                Sampling& sampling, float weight,
+                                const RayFootprint* footprint) const {
     SceneHit hit;
     if (!m_bvh.intersect(ray, hit)) {
         return m_scene.background;
@@ -125,9 +154,33 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     const Material& material = m_scene.materials[sp.material];
     const Vec3f wo = -d;
 
+    // The footprint at the hit: transferred differentials and the surface's derivatives.
+    RayDifferential at_hit;
+    SurfaceDifferential surface;
+    float travelled = 0.0f;
+    if (footprint != nullptr) {
+        const float t = hit.t * ray.direction.norm();
+        travelled = footprint->distance + t;
+        at_hit = footprint->differential.transfer(d, t, sp.geometric_normal);
+        surface = make_surface_differential(m_scene, hit, sp, at_hit.dp_dx, at_hit.dp_dy);
+    }
+
     // Light not mirrored or transmitted is scattered locally (ambient + Phong).
     const float local_weight = std::max(0.0f, 1.0f - material.reflectivity - material.transparency);
-    const Rgb albedo = m_textures.diffuse(material, sp.uv) * local_weight;
+    Rgb albedo;
+    if (footprint != nullptr && material.texture >= 0) {
+        UvFootprint uv_footprint{surface.duv_dx, surface.duv_dy};
+        if (m_textures.filter() == TextureFilter::Distance) {
+            // Igehy Fig. 3b: the width the pixel cone has after the distance travelled, spread
+            // over the surface by the angle of incidence, isotropic in texture space.
+            const float cosine = std::max(std::abs(d.dot(sp.geometric_normal)), 1e-3f);
+            const float width = travelled * footprint->spread / cosine * surface.uv_per_length;
+            uv_footprint = {Vec2f(width, 0.0f), Vec2f(0.0f, width)};
+        }
+        albedo = m_textures.diffuse(material, sp.uv, uv_footprint) * local_weight;
+    } else {
+        albedo = m_textures.diffuse(material, sp.uv) * local_weight;
+    }
     Rgb result =
         m_scene.ambient * albedo + direct_light(sp, material, albedo, wo, counters, sampling);
     if (depth >= m_max_depth) {
@@ -143,8 +196,15 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
                 const Vec3f spread = fold_to_side(sampling.spread(*t, material.roughness),
                                                   sp.geometric_normal, false);
                 const Ray refracted{sp.spawn_origin(spread), spread, kInfinity};
+                RayFootprint child;
+                if (footprint != nullptr) {
+                    child = {
+                        at_hit.refract(d, sp.shading_normal, surface.dn_dx, surface.dn_dy, eta),
+                        travelled, footprint->spread};
+                }
                 result += material.transparency * radiance(refracted, depth + 1, counters, sampling,
-                                                           weight * material.transparency);
+                                                           weight * material.transparency,
+                                                           footprint != nullptr ? &child : nullptr);
             }
         } else {
             // Total internal reflection: the transmitted share is mirrored instead.
@@ -153,17 +213,27 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     }
     if (reflect_weight > 0.0f && weight * reflect_weight >= kMinimumWeight) {
         Vec3f mirror = reflect(d, sp.shading_normal);
+        Vec3f mirror_normal = sp.shading_normal;
+        Vec3f dn_dx = surface.dn_dx;
+        Vec3f dn_dy = surface.dn_dy;
         // An interpolated normal can mirror a ray below the geometric surface; there the flat
         // triangle's own mirror direction is the right one.
         if (mirror.dot(sp.geometric_normal) <= 0.0f) {
             mirror = reflect(d, sp.geometric_normal);
+            mirror_normal = sp.geometric_normal;
+            dn_dx = dn_dy = Vec3f::Zero();
         }
         const Vec3f r =
             fold_to_side(sampling.spread(mirror, material.roughness), sp.geometric_normal, true);
         ++counters.secondary;
         const Ray reflected{sp.spawn_origin(r), r, kInfinity};
-        result += reflect_weight *
-                  radiance(reflected, depth + 1, counters, sampling, weight * reflect_weight);
+        RayFootprint child;
+        if (footprint != nullptr) {
+            child = {at_hit.reflect(d, mirror_normal, dn_dx, dn_dy), travelled, footprint->spread};
+        }
+        result += reflect_weight * radiance(reflected, depth + 1, counters, sampling,
+                                            weight * reflect_weight,
+                                            footprint != nullptr ? &child : nullptr);
     }
     return result;
 }

@@ -4,6 +4,7 @@
 // bit-identical for any thread count and any tile schedule.
 
 #include "common/image.h"
+#include "common/texture.h"
 #include "trace/pixel_filter.h"
 
 #include <cstdint>
@@ -36,6 +37,8 @@ struct RenderOptions {
     int max_depth = -1;      ///< Reflection/refraction depth; −1 = the scene's.
     bool quiet = false;      ///< No progress bar.
     PixelFilter filter;      ///< Reconstruction filter every sample is splatted through.
+    /// How textures are filtered (Igehy §4); all but None make rays carry differentials.
+    TextureFilter texture_filter = TextureFilter::Anisotropic;
 
     // The distributed tracer (trace/distributed.h).
     bool fixed_spp = false;       ///< One stratified batch of `spp` samples, no adaptation.

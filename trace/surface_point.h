@@ -1,6 +1,7 @@
 #pragma once
 // The local geometry at a ray hit, in world space: what shading and secondary rays need.
 
+#include "common/footprint.h"
 #include "common/ray.h"
 #include "common/scene.h"
 #include "trace/scene_bvh.h"
@@ -24,6 +25,13 @@ struct SurfacePoint {
         return offset_ray_origin(position, geometric_normal, error_bound, d);
     }
 };
+
+/// Normal and texture-coordinate derivatives at `sp` (made by make_surface_point for `hit`) for
+/// a ray whose hit-point differentials are dp_dx, dp_dy: the triangle's barycentric planes in
+/// world space, so instance transforms (including non-uniform scales) are accounted for.
+SurfaceDifferential make_surface_differential(const Scene& scene, const SceneHit& hit,
+                                              const SurfacePoint& sp, const Vec3f& dp_dx,
+                                              const Vec3f& dp_dy);
 
 /// Builds the world-space surface point of `hit` for a ray travelling along `direction`. Both
 /// normals are flipped to face against the ray (entering records whether they were flipped).

@@ -11,9 +11,11 @@ namespace mrt {
 RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options) {
     const CameraRays camera(scene.camera, options.width, options.height);
     const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
-    const TextureSampler textures(scene);
+    const TextureSampler textures(scene, options.texture_filter);
     const WhittedTracer tracer(scene, bvh, textures, max_depth);
     const int spp = std::max(1, options.spp);
+    const bool footprints = tracer.wants_footprints();
+    const float scale = footprint_scale(spp);
     Film film(options.width, options.height, options.filter);
     const auto start = std::chrono::steady_clock::now();
     RenderOutput out;
@@ -26,8 +28,11 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Rende
                 const float rx = static_cast<float>(x) + offset.x();
                 const float ry = static_cast<float>(y) + offset.y();
                 ++counters.primary;
+                const RayFootprint footprint = RayFootprint::camera(
+                    footprints ? camera.pinhole_differential(rx, ry, scale) : RayDifferential{});
                 tile.add_sample(rx, ry,
-                                tracer.radiance(camera.pinhole_ray(rx, ry), 0, counters, centre));
+                                tracer.radiance(camera.pinhole_ray(rx, ry), 0, counters, centre,
+                                                1.0f, footprints ? &footprint : nullptr));
             }
         });
     out.image = film.image();
