@@ -40,21 +40,10 @@ std::vector<std::string> directory_entries(const fs::path& dir) {
 /// A fresh directory per test; tests may run as parallel processes.
 class ImageFileTest : public ::testing::Test {
   protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        m_dir = fs::temp_directory_path() /
-                ("mrt_image_test_" + std::to_string(::getpid()) + "_" + info->name());
-        fs::remove_all(m_dir);
-        fs::create_directories(m_dir);
-    }
-    void TearDown() override {
-        std::error_code ignored;
-        fs::remove_all(m_dir, ignored);
-    }
-    const fs::path& dir() const { return m_dir; }
+    const fs::path& dir() const { return m_scratch.path(); }
 
   private:
-    fs::path m_dir;
+    mrt::testing::ScratchDirectory m_scratch{"mrt_image_test"};
 };
 
 /// Values in [0, 1] that vary in x, y and channel, so swapped axes or channels show up.

@@ -3,7 +3,12 @@
 
 #include "common/error.h"
 
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
 #include <string>
+#include <system_error>
 
 namespace mrt::testing {
 
@@ -17,5 +22,30 @@ std::string error_message(const F& f) {
     }
     return "(no error thrown)";
 }
+
+/// A fresh directory for the running test, removed with the object. Named after the process
+/// and the test, because ctest runs the tests of one suite as parallel processes.
+class ScratchDirectory {
+  public:
+    explicit ScratchDirectory(const std::string& prefix) {
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        m_path = std::filesystem::temp_directory_path() /
+                 (prefix + "_" + std::to_string(::getpid()) + "_" +
+                  (info != nullptr ? info->name() : "global"));
+        std::filesystem::remove_all(m_path);
+        std::filesystem::create_directories(m_path);
+    }
+    ~ScratchDirectory() {
+        std::error_code ignored;
+        std::filesystem::remove_all(m_path, ignored);
+    }
+    ScratchDirectory(const ScratchDirectory&) = delete;
+    ScratchDirectory& operator=(const ScratchDirectory&) = delete;
+
+    const std::filesystem::path& path() const { return m_path; }
+
+  private:
+    std::filesystem::path m_path;
+};
 
 }  // namespace mrt::testing

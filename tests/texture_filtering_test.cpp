@@ -6,6 +6,7 @@
 #include "common/image.h"
 #include "common/image_metrics.h"
 #include "common/scene_loader.h"
+#include "tests/test_support.h"
 #include "trace/distributed.h"
 #include "trace/scene_bvh.h"
 #include "trace/whitted.h"
@@ -23,11 +24,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// A scene directory holding a 64×64 checker of 8×8-texel black/white tiles, tiled 40 times
-/// over a 40×40 floor seen at a low angle (the horizon in the upper part of the image).
-fs::path checker_scene_dir() {
-    const fs::path dir = fs::temp_directory_path() / "mrt_texture_filtering_test";
-    fs::create_directories(dir);
+/// Writes into `dir` a 64×64 checker of 8×8-texel black/white tiles, tiled 40 times over a
+/// floor seen at a low angle (the horizon in the upper part of the image), and its scene.
+fs::path checker_scene(const fs::path& dir) {
     Image checker(64, 64);
     for (int y = 0; y < 64; ++y) {
         for (int x = 0; x < 64; ++x) {
@@ -46,7 +45,7 @@ fs::path checker_scene_dir() {
       "objects": [{"shape": "quad", "size": [40, 200], "material": "floor",
                    "transform": {"translate": [0, 0, -90]}}]
     })";
-    return dir;
+    return dir / "floor.json";
 }
 
 Image render(const Scene& scene, const SceneBvh& bvh, TextureFilter filter, int spp) {
@@ -59,8 +58,9 @@ Image render(const Scene& scene, const SceneBvh& bvh, TextureFilter filter, int 
     return render_whitted(scene, bvh, o).image;
 }
 
-TEST(TextureFiltering, FootprintFiltersBeatPointSamplingAgainstASupersampledReference) {
-    const Scene scene = load_scene(checker_scene_dir() / "floor.json");
+TEST(TracedTextureFiltering, FootprintFiltersBeatPointSamplingAgainstASupersampledReference) {
+    const testing::ScratchDirectory scratch("mrt_texture_filtering_test");
+    const Scene scene = load_scene(checker_scene(scratch.path()));
     const SceneBvh bvh(scene);
     const Image reference = render(scene, bvh, TextureFilter::None, 256);
     std::map<TextureFilter, double> error;
@@ -76,11 +76,12 @@ TEST(TextureFiltering, FootprintFiltersBeatPointSamplingAgainstASupersampledRefe
     EXPECT_LT(error[TextureFilter::Anisotropic], 0.6 * error[TextureFilter::None]);
 }
 
-TEST(TextureFiltering, AnisotropicFollowsTheReferenceNearTheHorizon) {
+TEST(TracedTextureFiltering, AnisotropicFollowsTheReferenceNearTheHorizon) {
     // Near the horizon a pixel covers many tiles along the view and few across it: the
     // supersampled reference is grey along z but keeps the stripes across. Anisotropic
     // filtering must reproduce that (no moiré, no over-blur), point sampling cannot.
-    const Scene scene = load_scene(checker_scene_dir() / "floor.json");
+    const testing::ScratchDirectory scratch("mrt_texture_filtering_test");
+    const Scene scene = load_scene(checker_scene(scratch.path()));
     const SceneBvh bvh(scene);
     const Image reference = render(scene, bvh, TextureFilter::None, 256);
     const Image anisotropic = render(scene, bvh, TextureFilter::Anisotropic, 1);
@@ -107,8 +108,9 @@ TEST(TextureFiltering, AnisotropicFollowsTheReferenceNearTheHorizon) {
     }
 }
 
-TEST(TextureFiltering, DistributedCarriesTheSameFootprints) {
-    const Scene scene = load_scene(checker_scene_dir() / "floor.json");
+TEST(TracedTextureFiltering, DistributedCarriesTheSameFootprints) {
+    const testing::ScratchDirectory scratch("mrt_texture_filtering_test");
+    const Scene scene = load_scene(checker_scene(scratch.path()));
     const SceneBvh bvh(scene);
     RenderOptions o;
     o.width = scene.camera.width;

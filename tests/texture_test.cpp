@@ -3,7 +3,7 @@
 
 #include "common/texture.h"
 #include "common/image.h"
-#include "test_support.h"
+#include "tests/test_support.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -156,27 +156,16 @@ UvFootprint isotropic(float texels, int size) {
 /// A fresh directory per test; tests may run as parallel processes.
 class TextureFiltering : public ::testing::Test {
   protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        m_dir = fs::temp_directory_path() /
-                ("mrt_texture_filter_test_" + std::to_string(::getpid()) + "_" + info->name());
-        fs::remove_all(m_dir);
-        fs::create_directories(m_dir);
-    }
-    void TearDown() override {
-        std::error_code ignored;
-        fs::remove_all(m_dir, ignored);
-    }
-    const fs::path& dir() const { return m_dir; }
+    const fs::path& dir() const { return m_scratch.path(); }
 
     /// Writes `image` as `name` (.png: 8-bit sRGB; .exr: linear float) into a texture of `scene`.
     void add_texture(Scene& scene, const Image& image, const std::string& name, bool srgb) const {
-        write_image(m_dir / name, image);
-        scene.textures.push_back(Texture{m_dir / name, srgb});
+        write_image(dir() / name, image);
+        scene.textures.push_back(Texture{dir() / name, srgb});
     }
 
   private:
-    fs::path m_dir;
+    mrt::testing::ScratchDirectory m_scratch{"mrt_texture_filter_test"};
 };
 
 TEST(TextureFilterNames, EveryNameParsesBackToItself) {
