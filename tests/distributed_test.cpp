@@ -102,29 +102,37 @@ TEST(PenumbraReference, QuadratureMatchesTheClosedFormWhereNothingIsHidden) {
     EXPECT_NEAR(penumbra_irradiance(0.0), 0.5 * disc_irradiance(0.0), 1e-9);
 }
 
+constexpr int kIrradianceSamples = 4096;
+
+/// Irradiance at (x, 0, 0) on the floor (albedo kAlbedo) as the tracer sees it: the mean
+/// radiance of stratified rays shot straight down from height `above`, times π/ρ.
+double traced_irradiance(const RayTree<StochasticSampling>& tree, double x, float above,
+                         RayCounters& counters) {
+    double sum = 0.0;
+    // The stratification key differs per point so that points do not share one pattern.
+    const int point = static_cast<int>(std::lround(x * 1000.0));
+    for (int k = 0; k < kIrradianceSamples; ++k) {
+        StratifiedSampler sampler(11, point, 0, k, kIrradianceSamples);
+        StochasticSampling sampling(sampler);
+        const Ray ray{Vec3f(static_cast<float>(x), above, 0.0f), Vec3f(0.0f, -1.0f, 0.0f),
+                      kInfinity};
+        sum += tree.radiance(ray, 0, counters, sampling)[0];
+    }
+    return sum / kIrradianceSamples * std::numbers::pi / kAlbedo;
+}
+
 TEST(Distributed, SoftShadowMatchesTheAnalyticPenumbra) {
     const Scene scene = penumbra_scene();
     const SceneBvh bvh(scene);
     const TextureSampler textures(scene);
     const RayTree<StochasticSampling> tree(scene, bvh, textures, 0);
     const double full = disc_irradiance(0.0);
-    const int samples = 4096;
-    int point = 0;
     for (const double x : {-1.5, -0.9, -0.6, -0.3, 0.0, 0.2, 0.5, 0.8, 1.5}) {
-        double sum = 0.0;
+        // Straight down onto (x, 0, 0) from under the occluder.
         RayCounters counters;
-        for (int k = 0; k < samples; ++k) {
-            StratifiedSampler sampler(11, point, 0, k, samples);
-            StochasticSampling sampling(sampler);
-            // Straight down onto (x, 0, 0) from under the occluder.
-            const Ray ray{Vec3f(static_cast<float>(x), 1.0f, 0.0f), Vec3f(0.0f, -1.0f, 0.0f),
-                          kInfinity};
-            sum += tree.radiance(ray, 0, counters, sampling)[0];
-        }
-        ++point;
-        const double irradiance = sum / samples * std::numbers::pi / kAlbedo;
-        EXPECT_NEAR(irradiance, penumbra_irradiance(x), 0.01 * full) << "x = " << x;
-        EXPECT_EQ(counters.shadow, static_cast<std::uint64_t>(samples));
+        EXPECT_NEAR(traced_irradiance(tree, x, 1.0f, counters), penumbra_irradiance(x), 0.01 * full)
+            << "x = " << x;
+        EXPECT_EQ(counters.shadow, static_cast<std::uint64_t>(kIrradianceSamples));
     }
 }
 
@@ -187,24 +195,13 @@ TEST(Distributed, SoftShadowOfASphereMatchesTheDiscLightClosedForm) {
     const TextureSampler textures(scene);
     const RayTree<StochasticSampling> tree(scene, bvh, textures, 0);
     const double full = disc_irradiance(0.0);
-    const int samples = 4096;
-    int point = 0;
     // The umbra is gone (ρ < R): on the axis the light shows an annulus; the penumbra reaches
     // out to where the sphere's image leaves the disc.
     for (const double x : {0.0, 0.2, 0.45, 0.7, 1.0, 1.5}) {
-        double sum = 0.0;
         RayCounters counters;
-        for (int k = 0; k < samples; ++k) {
-            StratifiedSampler sampler(23, point, 0, k, samples);
-            StochasticSampling sampling(sampler);
-            const Ray ray{Vec3f(static_cast<float>(x), 0.5f, 0.0f), Vec3f(0.0f, -1.0f, 0.0f),
-                          kInfinity};
-            sum += tree.radiance(ray, 0, counters, sampling)[0];
-        }
-        ++point;
-        const double irradiance = sum / samples * std::numbers::pi / kAlbedo;
         const double expected = x == 0.0 ? on_axis : sphere_shadow_irradiance(x);
-        EXPECT_NEAR(irradiance, expected, 0.01 * full) << "x = " << x;
+        EXPECT_NEAR(traced_irradiance(tree, x, 0.5f, counters), expected, 0.01 * full)
+            << "x = " << x;
     }
     EXPECT_LT(on_axis, 0.8 * full);  // the shadow is really there
 }
