@@ -38,11 +38,11 @@ struct PixelMoments {
 
 class DistributedRenderer {
   public:
-    DistributedRenderer(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options)
+    DistributedRenderer(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures,
+                        const RenderOptions& options)
         : m_options(options),
           m_camera(scene.camera, options.width, options.height),
-          m_textures(scene, options.texture_filter),
-          m_tree(scene, bvh, m_textures,
+          m_tree(scene, bvh, textures,
                  options.max_depth >= 0 ? options.max_depth : scene.max_depth),
           m_film(options.width, options.height, options.filter),
           m_moments(pixel_count()) {}
@@ -162,7 +162,6 @@ class DistributedRenderer {
 
     const RenderOptions& m_options;
     CameraRays m_camera;
-    TextureSampler m_textures;
     RayTree<StochasticSampling> m_tree;
     Film m_film;
     std::vector<PixelMoments> m_moments;
@@ -229,8 +228,14 @@ int reference_batch_count(int spp) {
 
 RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                                 const RenderOptions& options) {
+    const TextureSampler textures(scene, options.texture_filter);
+    return render_distributed(scene, bvh, textures, options);
+}
+
+RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
+                                const TextureSampler& textures, const RenderOptions& options) {
     const auto start = Clock::now();
-    DistributedRenderer renderer(scene, bvh, options);
+    DistributedRenderer renderer(scene, bvh, textures, options);
     RenderOutput out;
     const std::vector<int> uniform;
     auto timed_pass = [&](const std::vector<int>& counts, int count, const std::string& label) {

@@ -24,12 +24,18 @@
 // the number of passes depends on the machine's speed.
 
 #include "common/scene.h"
+#include "common/texture.h"
 #include "trace/render.h"
 #include "trace/scene_bvh.h"
 
 namespace mrt {
 
-/// Renders the scene's camera with the distributed ray tracer (see above for the modes).
+/// Renders the scene's camera with the distributed ray tracer (see above for the modes),
+/// textures from `textures` (built for options.texture_filter).
+RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
+                                const TextureSampler& textures, const RenderOptions& options);
+
+/// The same, preparing the textures itself.
 RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                                 const RenderOptions& options);
 

@@ -9,9 +9,14 @@
 namespace mrt {
 
 RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options) {
+    const TextureSampler textures(scene, options.texture_filter);
+    return render_whitted(scene, bvh, textures, options);
+}
+
+RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures,
+                            const RenderOptions& options) {
     const CameraRays camera(scene.camera, options.width, options.height);
     const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
-    const TextureSampler textures(scene, options.texture_filter);
     const WhittedTracer tracer(scene, bvh, textures, max_depth);
     const int spp = std::max(1, options.spp);
     const bool footprints = tracer.wants_footprints();

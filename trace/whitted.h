@@ -15,7 +15,12 @@ namespace mrt {
 using WhittedTracer = RayTree<CentreSampling>;
 
 /// Renders the scene's camera with the Whitted tracer, samples reconstructed with
-/// options.filter.
+/// options.filter, textures from `textures` (built for options.texture_filter: preparing the
+/// mip-mapped textures is load work, not render work).
+RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures,
+                            const RenderOptions& options);
+
+/// The same, preparing the textures itself.
 RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options);
 
 }  // namespace mrt
