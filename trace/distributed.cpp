@@ -144,15 +144,13 @@ class DistributedRenderer {
         const float ry = static_cast<float>(y) + position.y();
         ++counters.primary;
         StochasticSampling sampling(sampler);
-        const Ray ray = m_camera.lens_ray(rx, ry, lens.x(), lens.y());
-        Rgb radiance;
-        if (m_tree.wants_footprints()) {
-            const RayFootprint footprint = RayFootprint::camera(
-                m_camera.lens_differential(rx, ry, lens.x(), lens.y(), footprint_scale(count)));
-            radiance = m_tree.radiance(ray, 0, counters, sampling, 1.0f, &footprint);
-        } else {
-            radiance = m_tree.radiance(ray, 0, counters, sampling);
-        }
+        Rgb radiance = m_tree.camera_radiance(
+            m_camera.lens_ray(rx, ry, lens.x(), lens.y()),
+            [&] {
+                return m_camera.lens_differential(rx, ry, lens.x(), lens.y(),
+                                                  footprint_scale(count));
+            },
+            counters, sampling);
         if (!radiance.allFinite()) {
             radiance = Rgb::Zero();
         }

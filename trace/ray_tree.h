@@ -92,10 +92,16 @@ class RayTree {
     Rgb radiance(const Ray& ray, int depth, RayCounters& counters, Sampling& sampling,
                  float weight = 1.0f, const RayFootprint* footprint = nullptr) const;
 
-    /// Whether rays should carry footprints: the texture filter reads them and there is a
-    /// texture to filter.
-    bool wants_footprints() const {
-        return m_textures.filter() != TextureFilter::None && !m_scene.textures.empty();
+    /// Radiance along a camera ray; `differential()` gives the ray's differential and is called
+    /// only when footprints are wanted (a texture filter that reads them, and a texture).
+    template <typename DifferentialFunction>
+    Rgb camera_radiance(const Ray& ray, DifferentialFunction&& differential, RayCounters& counters,
+                        Sampling& sampling) const {
+        if (m_textures.filter() == TextureFilter::None || m_scene.textures.empty()) {
+            return radiance(ray, 0, counters, sampling);
+        }
+        const RayFootprint footprint = RayFootprint::camera(differential());
+        return radiance(ray, 0, counters, sampling, 1.0f, &footprint);
     }
 
     /// Branches of the ray tree whose contribution to the pixel is scaled below this are not
@@ -154,7 +160,13 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     const Material& material = m_scene.materials[sp.material];
     const Vec3f wo = -d;
 
-    // The footprint at the hit: transferred differentials and the surface's derivatives.
+    // The footprint at the hit: transferred differentials and the surface's derivatives, only
+    // when a texture here or a reflected or refracted ray reads them.
+    const bool spawns =
+        depth < m_max_depth && (material.reflectivity > 0.0f || material.refracts());
+    if (material.texture < 0 && !spawns) {
+        footprint = nullptr;
+    }
     RayDifferential at_hit;
     SurfaceDifferential surface;
     float travelled = 0.0f;

@@ -16,7 +16,8 @@ SurfacePoint make_surface_point(const Scene& scene, const SceneHit& hit, const V
     const auto linear = hit.object_to_world.linear();
     // Normals transform by the inverse transpose; the cofactor matrix is that up to a positive
     // factor for orientation-preserving transforms and flips correctly for mirroring ones.
-    const Mat3f normal_matrix = linear.inverse().transpose();
+    sp.normal_matrix = linear.inverse().transpose();
+    const Mat3f& normal_matrix = sp.normal_matrix;
     sp.position = hit.object_to_world * object_position;
     const float vertex_magnitude =
         std::max({p0.cwiseAbs().maxCoeff(), p1.cwiseAbs().maxCoeff(), p2.cwiseAbs().maxCoeff()});
@@ -53,13 +54,12 @@ SurfaceDifferential make_surface_differential(const Scene& scene, const SceneHit
                                               const Vec3f& dp_dy) {
     const Mesh& mesh = scene.meshes[hit.mesh];
     const auto& tri = mesh.triangles[hit.triangle];
-    const Mat3f normal_matrix = hit.object_to_world.linear().inverse().transpose();
     Vec3f p[3];
     Vec3f n[3];
     Vec2f uv[3];
     for (int i = 0; i < 3; ++i) {
         p[i] = hit.object_to_world * mesh.positions[tri[static_cast<std::size_t>(i)]];
-        n[i] = normal_matrix * mesh.normals[tri[static_cast<std::size_t>(i)]];
+        n[i] = sp.normal_matrix * mesh.normals[tri[static_cast<std::size_t>(i)]];
         uv[i] = mesh.has_uvs() ? mesh.uvs[tri[static_cast<std::size_t>(i)]] : Vec2f::Zero();
     }
     return triangle_differential(p, n, uv, hit.b1, hit.b2, dp_dx, dp_dy, !sp.entering);

@@ -19,6 +19,9 @@ struct SurfacePoint {
     bool entering = true;      ///< The ray arrived from the side the mesh's winding faces.
     float error_bound = 0.0f;  ///< Absolute floating-point error bound of `position`.
     std::uint32_t material = 0;
+    /// Maps object-space normals to world space (inverse transpose of the instance's linear
+    /// part), kept for the surface differential so the inverse is taken once per hit.
+    Mat3f normal_matrix = Mat3f::Identity();
 
     /// Origin for a ray leaving this point in direction d, clear of the surface.
     Vec3f spawn_origin(const Vec3f& d) const {

@@ -19,7 +19,6 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Textu
     const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
     const WhittedTracer tracer(scene, bvh, textures, max_depth);
     const int spp = std::max(1, options.spp);
-    const bool footprints = tracer.wants_footprints();
     const float scale = footprint_scale(spp);
     Film film(options.width, options.height, options.filter);
     const auto start = std::chrono::steady_clock::now();
@@ -33,11 +32,11 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Textu
                 const float rx = static_cast<float>(x) + offset.x();
                 const float ry = static_cast<float>(y) + offset.y();
                 ++counters.primary;
-                const RayFootprint footprint = RayFootprint::camera(
-                    footprints ? camera.pinhole_differential(rx, ry, scale) : RayDifferential{});
                 tile.add_sample(rx, ry,
-                                tracer.radiance(camera.pinhole_ray(rx, ry), 0, counters, centre,
-                                                1.0f, footprints ? &footprint : nullptr));
+                                tracer.camera_radiance(
+                                    camera.pinhole_ray(rx, ry),
+                                    [&] { return camera.pinhole_differential(rx, ry, scale); },
+                                    counters, centre));
             }
         });
     out.image = film.image();
