@@ -70,12 +70,12 @@ RayDifferential RayDifferential::transfer(const Vec3f& d, float t, const Vec3f& 
     return r;
 }
 
-RayDifferential RayDifferential::reflect(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx,
-                                         const Vec3f& dn_dy) const {
-    const float d_dot_n = d.dot(n);
+RayDifferential RayDifferential::redirected(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx,
+                                            const Vec3f& dn_dy, float eta, float mu,
+                                            float dmu_factor) const {
     const auto one = [&](const Vec3f& dd, const Vec3f& dn) {
-        const float d_d_dot_n = dd.dot(n) + d.dot(dn);               // eq. 15
-        return bounded(dd - 2.0f * (d_dot_n * dn + d_d_dot_n * n));  // eq. 14
+        const float dmu = dmu_factor * (dd.dot(n) + d.dot(dn));  // dμ from d(D·N), eqs. 15, 19
+        return bounded(eta * dd - (mu * dn + dmu * n));          // eqs. 14, 18
     };
     RayDifferential r;
     r.dp_dx = dp_dx;
@@ -83,6 +83,12 @@ RayDifferential RayDifferential::reflect(const Vec3f& d, const Vec3f& n, const V
     r.dd_dx = one(dd_dx, dn_dx);
     r.dd_dy = one(dd_dy, dn_dy);
     return r;
+}
+
+RayDifferential RayDifferential::reflect(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx,
+                                         const Vec3f& dn_dy) const {
+    // R = D − 2(D·N)N: η = 1, μ = 2·D·N, dμ = 2·d(D·N).
+    return redirected(d, n, dn_dx, dn_dy, 1.0f, 2.0f * d.dot(n), 2.0f);
 }
 
 RayDifferential RayDifferential::refract(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx,
@@ -94,17 +100,7 @@ RayDifferential RayDifferential::refract(const Vec3f& d, const Vec3f& n, const V
     const float t_dot_n = -std::sqrt(std::max(k, 0.0f));
     const float mu = eta * d_dot_n - t_dot_n;                                        // eq. 16
     const float dmu_factor = eta - eta * eta * d_dot_n / std::min(t_dot_n, -1e-6f);  // eq. 19
-    const auto one = [&](const Vec3f& dd, const Vec3f& dn) {
-        const float d_d_dot_n = dd.dot(n) + d.dot(dn);
-        const float dmu = dmu_factor * d_d_dot_n;
-        return bounded(eta * dd - (mu * dn + dmu * n));  // eq. 18
-    };
-    RayDifferential r;
-    r.dp_dx = dp_dx;
-    r.dp_dy = dp_dy;
-    r.dd_dx = one(dd_dx, dn_dx);
-    r.dd_dy = one(dd_dy, dn_dy);
-    return r;
+    return redirected(d, n, dn_dx, dn_dy, eta, mu, dmu_factor);
 }
 
 RayDifferential RayDifferential::transformed(const Mat3f& linear, const Vec3f& d) const {

@@ -62,6 +62,12 @@ struct RayDifferential {
     static constexpr float kMaxSquaredLength = 1e16f;
 
     bool finite() const;
+
+  private:
+    /// The common form of reflection and refraction, D' = η·D − μ·N with dμ = dmu_factor ·
+    /// d(D·N): dD' = η·dD − (μ·dN + dμ·N), origins unchanged.
+    RayDifferential redirected(const Vec3f& d, const Vec3f& n, const Vec3f& dn_dx,
+                               const Vec3f& dn_dy, float eta, float mu, float dmu_factor) const;
 };
 
 /// Derivatives of the unit shading normal and of the texture coordinates at a hit, from the

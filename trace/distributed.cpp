@@ -34,6 +34,13 @@ struct PixelMoments {
     int count = 0;
     double sum = 0.0;
     double sum_squares = 0.0;
+
+    PixelMoments& operator+=(const PixelMoments& o) {
+        count += o.count;
+        sum += o.sum;
+        sum_squares += o.sum_squares;
+        return *this;
+    }
 };
 
 class DistributedRenderer {
@@ -70,9 +77,7 @@ class DistributedRenderer {
                 PixelMoments& moments = m_moments[i];
                 for (int k = 0; k < count; ++k) {
                     const double l = luminance(sample(x, y, seed, k, count, tile, counters));
-                    moments.count += 1;
-                    moments.sum += l;
-                    moments.sum_squares += l * l;
+                    moments += PixelMoments{1, l, l * l};
                 }
             });
         std::uint64_t samples = 0;
@@ -100,10 +105,7 @@ class DistributedRenderer {
             for (int x = 0; x < w; ++x) {
                 PixelMoments s;
                 for (int xx = std::max(0, x - r); xx <= std::min(w - 1, x + r); ++xx) {
-                    const PixelMoments& m = m_moments[index(xx, y)];
-                    s.count += m.count;
-                    s.sum += m.sum;
-                    s.sum_squares += m.sum_squares;
+                    s += m_moments[index(xx, y)];
                 }
                 rows[index(x, y)] = s;
             }
@@ -113,10 +115,7 @@ class DistributedRenderer {
             for (int x = 0; x < w; ++x) {
                 PixelMoments s;
                 for (int yy = std::max(0, y - r); yy <= std::min(h - 1, y + r); ++yy) {
-                    const PixelMoments& m = rows[index(x, yy)];
-                    s.count += m.count;
-                    s.sum += m.sum;
-                    s.sum_squares += m.sum_squares;
+                    s += rows[index(x, yy)];
                 }
                 if (s.count > 1) {
                     const double n = s.count;
@@ -218,11 +217,12 @@ std::vector<int> refinement_counts(const std::vector<double>& variance,
     return counts;
 }
 
-}  // namespace
-
+/// Number of independent batches a reference of `spp` samples is split into.
 int reference_batch_count(int spp) {
     return std::clamp(spp, 1, kReferenceBatches);
 }
+
+}  // namespace
 
 RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                                 const RenderOptions& options) {
@@ -276,11 +276,13 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
         if (batches > 1) {
             out.std_error = std::sqrt(squared_error / static_cast<double>(values));
         }
+        out.spp = batches * per_batch;
         out.passes = renderer.passes();
         out.render_seconds = seconds_since(start);
         return out;
     }
 
+    out.spp = options.fixed_spp ? std::max(1, options.spp) : options.spp_max;
     if (options.fixed_spp) {
         timed_pass(uniform, std::max(1, options.spp), "distributed");
     } else {

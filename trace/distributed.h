@@ -39,7 +39,4 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
 RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                                 const RenderOptions& options);
 
-/// Number of independent batches a reference of `spp` samples is split into.
-int reference_batch_count(int spp);
-
 }  // namespace mrt

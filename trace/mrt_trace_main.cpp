@@ -114,13 +114,6 @@ int run(const Arguments& args) {
     const mrt::Scene scene = mrt::load_scene(args.scene, load_options);
     const double load_seconds = seconds_since(load_start);
 
-    // Building covers everything prepared before the first ray: the BVH and the mip-mapped
-    // textures, so render times compare tracing alone.
-    const auto build_start = Clock::now();
-    const mrt::SceneBvh bvh(scene);
-    const mrt::TextureSampler textures(scene, mrt::parse_texture_filter(args.texture_filter));
-    const double build_seconds = seconds_since(build_start);
-
     mrt::RenderOptions options;
     std::tie(options.width, options.height) = image_size(scene.camera, args);
     options.filter = mrt::parse_pixel_filter(args.filter);
@@ -138,6 +131,13 @@ int run(const Arguments& args) {
     options.max_depth = args.max_depth.value_or(-1);
     options.quiet = args.quiet;
 
+    // Building covers everything prepared before the first ray: the BVH and the mip-mapped
+    // textures, so render times compare tracing alone.
+    const auto build_start = Clock::now();
+    const mrt::SceneBvh bvh(scene);
+    const mrt::TextureSampler textures(scene, options.texture_filter);
+    const double build_seconds = seconds_since(build_start);
+
     const auto render_start = Clock::now();
     mrt::RenderOutput out = args.method == "distributed"
                                 ? mrt::render_distributed(scene, bvh, textures, options)
@@ -152,13 +152,7 @@ int run(const Arguments& args) {
         stats.scene = args.scene.string();
         stats.width = options.width;
         stats.height = options.height;
-        stats.spp = args.method == "distributed" && !options.fixed_spp && !options.reference
-                        ? options.spp_max
-                        : options.spp;
-        if (options.reference) {
-            const int batches = mrt::reference_batch_count(options.spp);
-            stats.spp = batches * ((options.spp + batches - 1) / batches);
-        }
+        stats.spp = out.spp;
         stats.filter = mrt::to_string(options.filter);
         stats.texture_filter = mrt::to_string(options.texture_filter);
         stats.passes = out.passes;

@@ -1,7 +1,7 @@
 #include "trace/reference_cache.h"
 
-#include "common/error.h"
 #include "common/atomic_file.h"
+#include "common/error.h"
 #include "trace/pixel_filter.h"
 
 #include <fmt/format.h>

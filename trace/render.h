@@ -53,6 +53,7 @@ struct RenderOutput {
     Image image;
     RayCounters rays;
     double render_seconds = 0.0;
+    int spp = 1;                      ///< Samples per pixel used (adaptive: the cap).
     int passes = 1;                   ///< Passes over the image.
     double last_pass_seconds = 0.0;   ///< Duration of the final pass.
     std::uint64_t samples = 0;        ///< Camera samples, all pixels and passes.

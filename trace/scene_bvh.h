@@ -25,7 +25,7 @@ struct SceneHit {
     std::uint32_t mesh = 0;      ///< Index into Scene::meshes.
     std::uint32_t triangle = 0;  ///< Index into that mesh's triangles.
     float b1 = 0.0f;             ///< Barycentric weight of vertex 1.
-    float b2 = 0.0f;             ///< Barycentric weight of vertex 2 (vertex 0 gets 1 − b1 − b2).
+    float b2 = 0.0f;  ///< Barycentric weight of vertex 2 (vertex 0 gets 1 − b1 − b2).
     Affine3fCompact object_to_world = Affine3fCompact::Identity();
 
     bool valid() const { return t < kInfinity; }
@@ -40,7 +40,7 @@ struct SceneBvhStats {
 };
 
 class SceneBvh {
-public:
+  public:
     /// Builds BVHs for every mesh and group of the scene (in parallel over meshes). The scene must
     /// outlive the SceneBvh.
     explicit SceneBvh(const Scene& scene);
@@ -57,7 +57,7 @@ public:
     Eigen::AlignedBox3f bounds() const;
     const SceneBvhStats& stats() const { return m_stats; }
 
-private:
+  private:
     struct Impl;
     std::unique_ptr<Impl> m_impl;
     SceneBvhStats m_stats;

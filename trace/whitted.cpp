@@ -40,6 +40,7 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Textu
             }
         });
     out.image = film.image();
+    out.spp = spp;
     out.samples = static_cast<std::uint64_t>(spp) * static_cast<std::uint64_t>(options.width) *
                   static_cast<std::uint64_t>(options.height);
     out.render_seconds =
