@@ -23,6 +23,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -169,7 +170,12 @@ TEST(MethodSpec, BudgetsHaveThreeSignificantDigitsAndAFloor) {
     EXPECT_EQ(mrt::budget_run_spec(twice, 0.1234), "distributed:time-budget=0.247");
     const mrt::DefaultRun with_options{"distributed", "spp-initial=2", 8.0};
     EXPECT_EQ(mrt::budget_run_spec(with_options, 0.001),
-              "distributed:spp-initial=2,time-budget=0.05");
+              "distributed:spp-initial=2,time-budget=0.1");
+    // Budgets of a tiny baseline stay distinct.
+    const mrt::DefaultRun four{"distributed", "", 4.0};
+    const mrt::DefaultRun sixteen{"distributed", "", 16.0};
+    EXPECT_EQ(mrt::budget_run_spec(four, 0.001), "distributed:time-budget=0.05");
+    EXPECT_EQ(mrt::budget_run_spec(sixteen, 0.001), "distributed:time-budget=0.2");
 }
 
 TEST(MethodSpec, MethodsAreReadFromTheMethodLineOfHelp) {
@@ -414,6 +420,39 @@ Args small(Args args) {
 
 /// Checks every file of a finished comparison in `out` and every number of results.json
 /// against a recomputation from the written images and stats; returns results.json.
+/// The stdout table's rows agree with results.json (to the digits printed): columns are
+/// #, spec, render s, total s, rays, RMSE, PSNR, SSIM.
+void check_table(const std::string& table, const json& results) {
+    std::map<std::string, std::vector<std::string>> rows;
+    std::istringstream in(table);
+    std::string line;
+    while (std::getline(in, line)) {
+        std::istringstream fields(line);
+        std::vector<std::string> f;
+        for (std::string w; fields >> w;) {
+            f.push_back(w);
+        }
+        if (f.size() == 8) {
+            rows[f[1]] = f;
+        }
+    }
+    for (const json& run : results["runs"]) {
+        const std::string spec = run["spec"];
+        ASSERT_TRUE(rows.count(spec) > 0) << spec << " not in\n" << table;
+        const std::vector<std::string>& f = rows[spec];
+        EXPECT_NEAR(std::stod(f[5]), run["rmse"].get<double>(),
+                    5e-7 + 1e-5 * run["rmse"].get<double>())
+            << spec;
+        EXPECT_NEAR(std::stod(f[7]), run["ssim"].get<double>(), 5e-5) << spec;
+        EXPECT_EQ(f[4], std::to_string(run["rays"].get<std::uint64_t>())) << spec;
+        if (run["psnr"].is_null()) {
+            EXPECT_EQ(f[6], "inf") << spec;
+        } else {
+            EXPECT_NEAR(std::stod(f[6]), run["psnr"].get<double>(), 0.005) << spec;
+        }
+    }
+}
+
 json check_comparison(const fs::path& out, const fs::path& reference_exr,
                       const Args& expected_specs) {
     const json results = read_json(out / "results.json");
@@ -539,6 +578,7 @@ TEST(MrtCompare, GivenReferenceRunsEverySpecAndRecomputes) {
     EXPECT_TRUE(contains(run.out, "whitted:spp=4")) << run.out;
     EXPECT_TRUE(contains(run.out, " inf ")) << run.out;
     EXPECT_TRUE(contains(run.out, "reference: 32×24")) << run.out;
+    check_table(run.out, results);
 
     // Again in the same directory with other specs: the earlier runs' files go, nothing else.
     { std::ofstream(out / "notes.txt") << "mine"; }
@@ -578,7 +618,9 @@ TEST(MrtCompare, DefaultSetWithRenderedReferenceThenCacheReuseAndInvalidation) {
     for (const int i : {0, 1, 2}) {
         EXPECT_EQ(specs[static_cast<std::size_t>(5 + i)],
                   "distributed:time-budget=" +
-                      mrt::format_budget_seconds(std::pow(4.0, i + 1) * whitted_seconds));
+                      mrt::format_budget_seconds(
+                          std::pow(4.0, i + 1) *
+                          std::max(whitted_seconds, mrt::kMinimumBudgetBaseSeconds)));
     }
     const Args offered = offered_methods();
     for (const std::string method : {"cone", "cone-classic"}) {
@@ -586,6 +628,7 @@ TEST(MrtCompare, DefaultSetWithRenderedReferenceThenCacheReuseAndInvalidation) {
         EXPECT_EQ(std::count(specs.begin(), specs.end(), method), is_offered ? 1 : 0) << method;
     }
     check_comparison(out, out / "reference.exr", specs);
+    check_table(first.out, results);
     EXPECT_EQ(count_lines(first.out), static_cast<int>(specs.size()) + 2) << first.out;
 
     // The reference and its record.

@@ -8,6 +8,7 @@
 #include "common/image_metrics.h"
 #include "common/scene_loader.h"
 #include "common/texture.h"
+#include "tests/test_support.h"
 #include "trace/ray_tree.h"
 #include "trace/scene_bvh.h"
 
@@ -207,10 +208,7 @@ TEST(Distributed, SoftShadowOfASphereMatchesTheDiscLightClosedForm) {
 }
 
 RenderOptions options_for(const Scene& scene) {
-    RenderOptions o;
-    o.width = scene.camera.width;
-    o.height = scene.camera.height;
-    o.quiet = true;
+    RenderOptions o = testing::camera_options(scene);
     o.threads = 2;
     return o;
 }

@@ -2,6 +2,8 @@
 // Small helpers shared by the test suites.
 
 #include "common/error.h"
+#include "common/scene.h"
+#include "trace/render.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -21,6 +23,15 @@ std::string error_message(const F& f) {
         return e.what();
     }
     return "(no error thrown)";
+}
+
+/// Render options for the scene camera's full image, without a progress bar.
+inline RenderOptions camera_options(const Scene& scene) {
+    RenderOptions options;
+    options.width = scene.camera.width;
+    options.height = scene.camera.height;
+    options.quiet = true;
+    return options;
 }
 
 /// A fresh directory for the running test, removed with the object. Named after the process

@@ -49,11 +49,8 @@ fs::path checker_scene(const fs::path& dir) {
 }
 
 Image render(const Scene& scene, const SceneBvh& bvh, TextureFilter filter, int spp) {
-    RenderOptions o;
-    o.width = scene.camera.width;
-    o.height = scene.camera.height;
+    RenderOptions o = testing::camera_options(scene);
     o.spp = spp;
-    o.quiet = true;
     o.texture_filter = filter;
     return render_whitted(scene, bvh, o).image;
 }
@@ -112,10 +109,7 @@ TEST(TracedTextureFiltering, DistributedCarriesTheSameFootprints) {
     const testing::ScratchDirectory scratch("mrt_texture_filtering_test");
     const Scene scene = load_scene(checker_scene(scratch.path()));
     const SceneBvh bvh(scene);
-    RenderOptions o;
-    o.width = scene.camera.width;
-    o.height = scene.camera.height;
-    o.quiet = true;
+    RenderOptions o = testing::camera_options(scene);
     o.fixed_spp = true;
     o.spp = 1;
     o.texture_filter = TextureFilter::Anisotropic;

@@ -8,6 +8,7 @@
 #include "common/image_metrics.h"
 #include "common/procedural.h"
 #include "common/scene_loader.h"
+#include "tests/test_support.h"
 #include "trace/scene_bvh.h"
 #include "trace/shading.h"
 
@@ -52,12 +53,9 @@ Scene top_down_scene() {
 
 RenderOutput render(const Scene& scene, int threads = 1, int max_depth = -1) {
     const SceneBvh bvh(scene);
-    RenderOptions options;
-    options.width = scene.camera.width;
-    options.height = scene.camera.height;
+    RenderOptions options = testing::camera_options(scene);
     options.threads = threads;
     options.max_depth = max_depth;
-    options.quiet = true;
     return render_whitted(scene, bvh, options);
 }
 

@@ -185,8 +185,13 @@ std::string format_budget_seconds(double seconds) {
 }
 
 std::string budget_run_spec(const DefaultRun& run, double baseline_seconds) {
-    const std::string budget =
-        "time-budget=" + format_budget_seconds(run.budget_factor * baseline_seconds);
+    // The baseline is floored so that the budgets keep their ratios above the 0.05 s minimum:
+    // on a tiny image whitted takes a millisecond and 4×, 16× and 64× of it would all become
+    // the same 0.05 s run.
+    const double base = std::isfinite(baseline_seconds)
+                            ? std::max(baseline_seconds, kMinimumBudgetBaseSeconds)
+                            : kMinimumBudgetBaseSeconds;
+    const std::string budget = "time-budget=" + format_budget_seconds(run.budget_factor * base);
     return run.method + ":" + (run.options.empty() ? budget : run.options + "," + budget);
 }
 

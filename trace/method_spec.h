@@ -69,9 +69,13 @@ const std::string& baseline_spec();
 /// The spec of a fixed default run ("method" or "method:options").
 std::string default_run_spec(const DefaultRun& run);
 
+/// Baseline times below this count as this, so the smallest default factor (4) gives the
+/// 0.05 s minimum budget and the larger factors stay distinct from it.
+inline constexpr double kMinimumBudgetBaseSeconds = 0.0125;
+
 /// The spec of a time-budget run with `baseline_seconds` measured: budget = factor ×
-/// baseline, rounded to 3 significant digits and at least 0.05 s
-/// ("distributed:time-budget=0.246").
+/// max(baseline, kMinimumBudgetBaseSeconds), rounded to 3 significant digits and at least
+/// 0.05 s ("distributed:time-budget=0.246").
 std::string budget_run_spec(const DefaultRun& run, double baseline_seconds);
 
 /// The budget in seconds, formatted as budget_run_spec writes it ("0.246", "12.3", "0.05").
