@@ -25,8 +25,10 @@ CameraRays::CameraRays(const Camera& camera, int width, int height)
     m_up = m_right.cross(m_forward);
 
     const float half_height = std::tan(0.5f * camera.vertical_fov);
-    // Square pixels: the horizontal extent follows the image's aspect ratio.
-    const float half_width = half_height * static_cast<float>(width) / static_cast<float>(height);
+    // The horizontal extent follows the image's aspect ratio times the pixels' own: pixel steps
+    // differ along x and y when pixel_aspect ≠ 1, and the differentials with them.
+    const float half_width =
+        half_height * camera.pixel_aspect * static_cast<float>(width) / static_cast<float>(height);
     m_top_left = m_forward - half_width * m_right + half_height * m_up;
     m_step_x = (2.0f * half_width / static_cast<float>(width)) * m_right;
     m_step_y = (-2.0f * half_height / static_cast<float>(height)) * m_up;

@@ -14,7 +14,8 @@ namespace mrt {
 class CameraRays {
   public:
     /// The camera renders a width × height image (which may differ from camera.width/height:
-    /// the field of view stays vertical, the aspect follows the image).
+    /// the field of view stays vertical, the horizontal extent follows the image's aspect times
+    /// camera.pixel_aspect).
     CameraRays(const Camera& camera, int width, int height);
 
     /// Pinhole ray through raster position (x, y); unit direction.

@@ -25,6 +25,9 @@ struct Camera {
     int height = 512;                 ///< Image height in pixels.
     float aperture_radius = 0.0f;     ///< Thin-lens radius (world units); 0 is a pinhole.
     float focal_distance = 0.0f;      ///< Distance to the plane in focus along the view axis.
+    /// Width of a pixel over its height: 1 is square; 2 stretches the view horizontally over the
+    /// same pixels (an anamorphic image, displayed at twice its width).
+    float pixel_aspect = 1.0f;
 };
 
 /// Isotropic point light.
@@ -49,20 +52,20 @@ struct EllipticalAreaLight {
 /// An image texture, referred to by materials.
 struct Texture {
     std::filesystem::path path;  ///< Resolved absolute path of the image file.
-    bool srgb = true;            ///< Linearise with the sRGB curve when loaded (8-bit colour images).
+    bool srgb = true;  ///< Linearise with the sRGB curve when loaded (8-bit colour images).
 };
 
 /// Phong-style material of the paper's scenes, plus reflection, refraction and roughness.
 struct Material {
     std::string name;
-    Rgb diffuse{0.8f, 0.8f, 0.8f};  ///< Diffuse albedo (multiplied by the texture when present).
+    Rgb diffuse{0.8f, 0.8f, 0.8f};   ///< Diffuse albedo (multiplied by the texture when present).
     Rgb specular{0.0f, 0.0f, 0.0f};  ///< Phong specular colour.
-    float phong_exponent = 32.0f;   ///< Phong exponent (≥ 0).
-    float reflectivity = 0.0f;      ///< Fraction of light mirrored, in [0, 1].
-    float transparency = 0.0f;      ///< Fraction of light refracted, in [0, 1 − reflectivity].
-    float ior = 1.5f;               ///< Index of refraction of the inside (≥ 1 typical, > 0).
-    float roughness = 0.0f;         ///< Blur of reflection/refraction (0 = perfect mirror).
-    int texture = -1;               ///< Index into Scene::textures, or −1.
+    float phong_exponent = 32.0f;    ///< Phong exponent (≥ 0).
+    float reflectivity = 0.0f;       ///< Fraction of light mirrored, in [0, 1].
+    float transparency = 0.0f;       ///< Fraction of light refracted, in [0, 1 − reflectivity].
+    float ior = 1.5f;                ///< Index of refraction of the inside (≥ 1 typical, > 0).
+    float roughness = 0.0f;          ///< Blur of reflection/refraction (0 = perfect mirror).
+    int texture = -1;                ///< Index into Scene::textures, or −1.
     Affine2f uv_transform = Affine2f::Identity();  ///< Applied to mesh UVs before lookup.
 
     bool reflects() const { return reflectivity > 0.0f; }
@@ -73,7 +76,7 @@ struct Material {
 struct Instance {
     enum class Kind : std::uint8_t { Mesh, Group };
     Kind kind = Kind::Mesh;
-    std::uint32_t index = 0;                      ///< Into Scene::meshes or Scene::groups.
+    std::uint32_t index = 0;                    ///< Into Scene::meshes or Scene::groups.
     Affine3f transform = Affine3f::Identity();  ///< Child space → group space.
 };
 

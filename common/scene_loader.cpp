@@ -31,6 +31,10 @@ constexpr int kMaxSegments = 65536;
 constexpr int kMaxTiles = 65536;
 constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
 constexpr float kDefaultVerticalFovDegrees = 45.0f;
+// Pixel width over height: anamorphic formats stay within 1:4 .. 4:1; beyond 1:100 the
+// footprints' anisotropy clamp, not the camera, would decide what a pixel sees.
+constexpr double kMinPixelAspect = 0.01;
+constexpr double kMaxPixelAspect = 100.0;
 // Below this sine of the angle between up and the view direction the camera basis is undefined.
 constexpr double kMinUpViewSine = 1e-6;
 // Relative to the cube of the largest coefficient, a smaller 3×3 determinant counts as singular.
@@ -226,7 +230,7 @@ class SceneBuilder {
   private:
     void read_camera(const JsonValue& value) {
         const JsonObject camera(value, {"aperture_radius", "eye", "focal_distance", "fov",
-                                        "look_at", "resolution", "up"});
+                                        "look_at", "pixel_aspect", "resolution", "up"});
         Camera& c = m_scene.camera;
         c.eye = camera.required("eye").vec3();
         const JsonValue look_at = camera.required("look_at");
@@ -257,6 +261,9 @@ class SceneBuilder {
             }
             c.width = size[0].integer(1, kMaxResolution);
             c.height = size[1].integer(1, kMaxResolution);
+        }
+        if (const auto aspect = camera.optional("pixel_aspect")) {
+            c.pixel_aspect = aspect->number(NumberRange::closed(kMinPixelAspect, kMaxPixelAspect));
         }
         if (const auto aperture = camera.optional("aperture_radius")) {
             c.aperture_radius = aperture->number(NumberRange::at_least(0.0));

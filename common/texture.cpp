@@ -41,6 +41,17 @@ constexpr std::array<std::pair<TextureFilter, const char*>, 4> kFilterNames{{
 /// huge derivatives gave the same image in a third of the time).
 constexpr float kMaxDerivativeLength = 1.0f;
 
+/// Scale of the derivatives handed to OpenImageIO's anisotropic filter. It reads them as the
+/// diameters of an ellipse and spreads its probes over 2·(major − minor) along the major axis,
+/// each a bilinear lookup at the level where the minor axis is one texel, so its response is
+/// wider than the box over the pixel's parallelogram. Measured: the RMS difference between its
+/// response and the box's (sinc) for sinusoids of period 16–128 texels along either axis of
+/// 2×2 … 32×8-texel footprints is 0.146 unscaled, 0.057 at 0.65 (the optimum), 0.070 at 0.75;
+/// the RMSE of traced checker floors against 256-spp point-sampled references is lowest at
+/// 0.75–0.8 (square pixels −15 %, pixels 3:1 −54 % against unscaled; see
+/// tests/texture_filtering_test.cpp). 0.75 serves both.
+constexpr float kAnisotropicFootprintScale = 0.75f;
+
 /// OpenImageIO can queue several messages separated by newlines; ours are one line each.
 std::string one_line(std::string message) {
     while (!message.empty() && std::isspace(static_cast<unsigned char>(message.back())) != 0) {
@@ -283,9 +294,11 @@ struct TextureSampler::Impl {
                 st = {Vec2f(width, 0.0f), Vec2f(0.0f, width)};
                 break;
             }
-            case TextureFilter::Anisotropic:
-                st = st_footprint(footprint);
+            case TextureFilter::Anisotropic: {
+                const StFootprint d = st_footprint(footprint);
+                st = {kAnisotropicFootprintScale * d.dst_dx, kAnisotropicFootprintScale * d.dst_dy};
                 break;
+            }
         }
         float result[3] = {0.0f, 0.0f, 0.0f};
         const int nchannels = channels[i];

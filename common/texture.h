@@ -38,7 +38,8 @@ enum class TextureFilter {
     /// width is the longer of the two footprint derivatives in texture space (Fig. 4a).
     Trilinear,
     /// Anisotropic: the level of detail follows the footprint's minor axis and bilinear probes
-    /// are averaged along its major axis (OpenImageIO's MipModeAniso, Fig. 4b).
+    /// are averaged along its major axis (OpenImageIO's MipModeAniso, Fig. 4b), with the
+    /// derivatives scaled by 0.75 so that its extent is the pixel's (texture.cpp).
     Anisotropic,
 };
 

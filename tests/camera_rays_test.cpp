@@ -107,6 +107,31 @@ TEST(CameraRays, DifferentialsMatchNeighbouringRays) {
               pinhole_rays.pinhole_differential(x, y).dd_dx);
 }
 
+TEST(CameraRays, NonSquarePixelsStretchTheHorizontalStepAndItsDifferential) {
+    Camera c = test_camera();
+    c.pixel_aspect = 2.5f;
+    const CameraRays rays(c, 200, 100);
+    const Vec3f forward(0.0f, 0.0f, -1.0f);
+    EXPECT_NEAR(rays.pixel_step_x().norm(), 2.5f * rays.pixel_step_y().norm(), 1e-7f);
+    // The vertical field of view is the camera's; the horizontal one widens by the pixel aspect.
+    EXPECT_NEAR(angle_between(rays.pinhole_ray(100.0f, 0.0f).direction, forward),
+                0.5f * c.vertical_fov, 1e-5f);
+    EXPECT_NEAR(angle_between(rays.pinhole_ray(200.0f, 50.0f).direction, forward),
+                std::atan(2.5f * 2.0f * std::tan(0.5f * c.vertical_fov)), 1e-5f);
+    const float x = 151.2f, y = 12.6f, h = 0.01f;
+    const RayDifferential d = rays.pinhole_differential(x, y);
+    const Vec3f fd_x =
+        (rays.pinhole_ray(x + h, y).direction - rays.pinhole_ray(x - h, y).direction) / (2 * h);
+    const Vec3f fd_y =
+        (rays.pinhole_ray(x, y + h).direction - rays.pinhole_ray(x, y - h).direction) / (2 * h);
+    EXPECT_LT((d.dd_dx - fd_x).norm(), 1e-3f * fd_x.norm());
+    EXPECT_LT((d.dd_dy - fd_y).norm(), 1e-3f * fd_y.norm());
+    // At the image centre the footprint is an ellipse 2.5 times as wide as tall.
+    const FootprintCone cone = FootprintCone::from_differential(
+        rays.pinhole_ray(100.0f, 50.0f).direction, rays.pinhole_differential(100.0f, 50.0f));
+    EXPECT_NEAR(cone.max_diameter(1.0f) / cone.min_diameter(1.0f), 2.5f, 1e-4f);
+}
+
 TEST(CameraRays, ConcentricDiscIsAreaPreserving) {
     // A uniform grid over the square must land uniformly on the disc: E[r²] = 1/2 and a quarter
     // of the samples inside radius 1/2.

@@ -254,6 +254,7 @@ mrt::ReferenceKey example_key() {
     key.width = 32;
     key.height = std::nullopt;
     key.filter = "box";
+    key.texture_filter = "none";
     key.spp = 16;
     key.seed = 7;
     return key;
@@ -288,6 +289,7 @@ TEST(ReferenceCache, RecordIsReusedOnlyForAnIdenticalKey) {
     EXPECT_FALSE(changed([](mrt::ReferenceKey& k) { k.height = 24; }));
     EXPECT_FALSE(changed([](mrt::ReferenceKey& k) { k.spp = 17; }));
     EXPECT_FALSE(changed([](mrt::ReferenceKey& k) { k.seed = 8; }));
+    EXPECT_FALSE(changed([](mrt::ReferenceKey& k) { k.texture_filter = "anisotropic"; }));
     EXPECT_FALSE(changed([](mrt::ReferenceKey& k) { k.scene = "/scenes/b.json"; }));
 
     { std::ofstream(record) << "{\"key\": "; }

@@ -167,7 +167,7 @@ TEST(SceneLoader, ParsesCameraWithFovInDegrees) {
     const Scene scene = parse(SceneParts()
                                   .camera(R"({"eye": [1, 2, 3], "look_at": [1, 2, 0],
         "up": [0, 0.5, 0], "fov": 40, "resolution": [640, 480], "aperture_radius": 0.1,
-        "focal_distance": 2.5})")
+        "focal_distance": 2.5, "pixel_aspect": 1.5})")
                                   .json());
     const Camera& c = scene.camera;
     expect_near(c.eye, {1, 2, 3});
@@ -178,6 +178,7 @@ TEST(SceneLoader, ParsesCameraWithFovInDegrees) {
     EXPECT_EQ(c.height, 480);
     EXPECT_FLOAT_EQ(c.aperture_radius, 0.1f);
     EXPECT_FLOAT_EQ(c.focal_distance, 2.5f);
+    EXPECT_FLOAT_EQ(c.pixel_aspect, 1.5f);
 }
 
 TEST(SceneLoader, CameraDefaultsFocusOnLookAtWithA45DegreeFov) {
@@ -190,6 +191,7 @@ TEST(SceneLoader, CameraDefaultsFocusOnLookAtWithA45DegreeFov) {
     EXPECT_EQ(c.width, 512);
     EXPECT_EQ(c.height, 512);
     EXPECT_EQ(c.aperture_radius, 0.0f);
+    EXPECT_EQ(c.pixel_aspect, 1.0f);
 }
 
 TEST(SceneLoader, ParsesBackgroundAmbientAndMaxDepthWithGreyShorthand) {
@@ -848,6 +850,8 @@ std::vector<Mistake> mistakes() {
          "scene.json: /camera/fov: found 0, expected a number in (0, 180)"},
         {"FovAsString", camera(eye + R"(, "fov": "40")"),
          R"(scene.json: /camera/fov: found "40", expected a number in (0, 180))"},
+        {"PixelAspectZero", camera(eye + R"(, "pixel_aspect": 0)"),
+         "scene.json: /camera/pixel_aspect: found 0, expected a number in [0.01, 100]"},
         {"ResolutionZero", camera(eye + R"(, "resolution": [0, 512])"),
          "scene.json: /camera/resolution/0: found 0, expected an integer in [1, 65536]"},
         {"ResolutionFraction", camera(eye + R"(, "resolution": [512, 512.5])"),
@@ -866,7 +870,7 @@ std::vector<Mistake> mistakes() {
          "scene.json: /camera/focal_distance: found 0, expected a number > 0"},
         {"UnknownCameraKey", camera(eye + R"(, "fovy": 40)"),
          "scene.json: /camera/fovy: unknown key (expected one of: aperture_radius, eye, "
-         "focal_distance, fov, look_at, resolution, up)"},
+         "focal_distance, fov, look_at, pixel_aspect, resolution, up)"},
         {"BackgroundAsName", SceneParts().extra(R"("background": "black")").json(),
          R"(scene.json: /background: found "black", expected an array of 3 numbers or a number)"},
         {"NegativeAmbient", SceneParts().extra(R"("ambient": -0.5)").json(),

@@ -25,8 +25,10 @@ namespace {
 namespace fs = std::filesystem;
 
 /// Writes into `dir` a 64×64 checker of 8×8-texel black/white tiles, tiled 40 times over a
-/// floor seen at a low angle (the horizon in the upper part of the image), and its scene.
-fs::path checker_scene(const fs::path& dir) {
+/// floor seen at a low angle (the horizon in the upper part of the image), and its scene:
+/// 96×64 square pixels, or `columns` columns of pixels 96/columns times as wide as tall over
+/// the same view.
+fs::path checker_scene(const fs::path& dir, int columns = 96) {
     Image checker(64, 64);
     for (int y = 0; y < 64; ++y) {
         for (int x = 0; x < 64; ++x) {
@@ -36,7 +38,8 @@ fs::path checker_scene(const fs::path& dir) {
     write_image(dir / "checker.exr", checker);
     std::ofstream(dir / "floor.json") << R"({
       "camera": {"eye": [0, 1.2, 10], "look_at": [0, 0.6, 0], "fov": 40,
-                 "resolution": [96, 64]},
+                 "resolution": [)" << columns
+                                      << R"(, 64], "pixel_aspect": )" << 96.0 / columns << R"(},
       "background": [0.5, 0.5, 0.5],
       "ambient": [1, 1, 1],
       "materials": {"floor": {"diffuse": 1,
@@ -103,6 +106,60 @@ TEST(TracedTextureFiltering, AnisotropicFollowsTheReferenceNearTheHorizon) {
         EXPECT_LT(row_error(anisotropic, y), 0.5 * row_error(none, y)) << "row " << y;
         EXPECT_LT(row_error(anisotropic, y), 0.15) << "row " << y;
     }
+}
+
+TEST(TracedTextureFiltering, NonSquarePixelsFilterOverTheirOwnFootprint) {
+    // Pixels three times as wide as tall see the same view as three square pixels side by
+    // side: the references agree once the square one is averaged over each three columns, and
+    // the filters keep their order, since the differentials carry the unequal pixel steps.
+    const testing::ScratchDirectory scratch("mrt_texture_filtering_test");
+    const Scene square_scene = load_scene(checker_scene(scratch.path()));
+    const Scene wide_scene = load_scene(checker_scene(scratch.path(), 32));
+    ASSERT_FLOAT_EQ(wide_scene.camera.pixel_aspect, 3.0f);
+    const SceneBvh square_bvh(square_scene);
+    const SceneBvh wide_bvh(wide_scene);
+    const Image square_reference = render(square_scene, square_bvh, TextureFilter::None, 256);
+    const Image reference = render(wide_scene, wide_bvh, TextureFilter::None, 256);
+    ASSERT_EQ(reference.width(), 32);
+    Image averaged(32, 64);
+    for (int y = 0; y < 64; ++y) {
+        for (int x = 0; x < 32; ++x) {
+            averaged.set(x, y,
+                         (square_reference.at(3 * x, y) + square_reference.at(3 * x + 1, y) +
+                          square_reference.at(3 * x + 2, y)) /
+                             3.0f);
+        }
+    }
+    EXPECT_LT(rmse(reference, averaged), 0.01);
+    std::map<TextureFilter, double> error;
+    for (const TextureFilter f :
+         {TextureFilter::None, TextureFilter::Trilinear, TextureFilter::Anisotropic}) {
+        error[f] = rmse(render(wide_scene, wide_bvh, f, 1), reference);
+    }
+    EXPECT_LT(error[TextureFilter::Anisotropic], error[TextureFilter::Trilinear]);
+    EXPECT_LT(error[TextureFilter::Trilinear], error[TextureFilter::None]);
+    EXPECT_LT(error[TextureFilter::Anisotropic], 0.6 * error[TextureFilter::None]);
+}
+
+TEST(TracedTextureFiltering, CarryingDifferentialsUnreadChangesNoPixel) {
+    // `always` prices the differentials by computing them where nothing reads them: with the
+    // `none` filter the image must be bit-identical, in both tracers.
+    const testing::ScratchDirectory scratch("mrt_texture_filtering_test");
+    const Scene scene = load_scene(checker_scene(scratch.path()));
+    const SceneBvh bvh(scene);
+    RenderOptions o = testing::camera_options(scene);
+    o.texture_filter = TextureFilter::None;
+    o.spp = 2;
+    const Image whitted = render_whitted(scene, bvh, o).image;
+    o.fixed_spp = true;
+    const Image distributed = render_distributed(scene, bvh, o).image;
+    o.differentials = Differentials::Always;
+    EXPECT_EQ(render_distributed(scene, bvh, o).image.data(), distributed.data());
+    o.fixed_spp = false;
+    EXPECT_EQ(render_whitted(scene, bvh, o).image.data(), whitted.data());
+    EXPECT_EQ(parse_differentials(to_string(Differentials::Always)), Differentials::Always);
+    EXPECT_EQ(parse_differentials("when-read"), Differentials::WhenRead);
+    EXPECT_THROW(parse_differentials("sometimes"), Error);
 }
 
 TEST(TracedTextureFiltering, DistributedCarriesTheSameFootprints) {

@@ -31,6 +31,10 @@ constexpr const char* kReferencePng = "reference.png";
 constexpr const char* kReferenceRecord = "reference.json";
 constexpr const char* kReferenceStats = "reference-stats.json";
 constexpr const char* kReferenceMethod = "distributed";
+// The reference point-samples textures (bilinear at full resolution): with enough samples per
+// pixel that converges to the exact pixel integral, where a filter would add its own blur and
+// favour the runs that use the same one.
+constexpr const char* kReferenceTextureFilter = "none";
 
 /// One entry of the run list: a spec, or a time-budget run of the default set whose spec is
 /// known once the baseline has run.
@@ -288,6 +292,7 @@ class ComparisonRun {
         key.width = m_options.width;
         key.height = m_options.height;
         key.filter = m_result.filter;
+        key.texture_filter = kReferenceTextureFilter;
         key.spp = m_options.reference_spp;
         key.seed = m_options.seed;
         return key;
@@ -376,9 +381,11 @@ class ComparisonRun {
         std::vector<std::string> args =
             common_arguments(m_options, scene.string(), dir / kReferenceExr, dir / kReferenceStats);
         args.insert(args.end(), {"--method", kReferenceMethod, "--reference", "--spp",
-                                 std::to_string(m_options.reference_spp)});
-        const std::string what = fmt::format("reference ({} --reference --spp {})",
-                                             kReferenceMethod, m_options.reference_spp);
+                                 std::to_string(m_options.reference_spp), "--texture-filter",
+                                 kReferenceTextureFilter});
+        const std::string what =
+            fmt::format("reference ({} --reference --spp {} --texture-filter {})", kReferenceMethod,
+                        m_options.reference_spp, kReferenceTextureFilter);
         progress_line(fmt::format("[ref] {} ...", what));
         run_trace(m_options, args, what);
 

@@ -49,8 +49,8 @@ class DistributedRenderer {
                         const RenderOptions& options)
         : m_options(options),
           m_camera(scene.camera, options.width, options.height),
-          m_tree(scene, bvh, textures,
-                 options.max_depth >= 0 ? options.max_depth : scene.max_depth),
+          m_tree(scene, bvh, textures, options.max_depth >= 0 ? options.max_depth : scene.max_depth,
+                 options.differentials),
           m_film(options.width, options.height, options.filter),
           m_moments(pixel_count()) {}
 

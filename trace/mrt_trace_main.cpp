@@ -41,6 +41,7 @@ struct Arguments {
     bool reference = false;
     std::string filter = "box";
     std::string texture_filter = "anisotropic";
+    std::string differentials = "when-read";
     std::optional<int> width;
     std::optional<int> height;
     int threads = 0;
@@ -118,6 +119,7 @@ int run(const Arguments& args) {
     std::tie(options.width, options.height) = image_size(scene.camera, args);
     options.filter = mrt::parse_pixel_filter(args.filter);
     options.texture_filter = mrt::parse_texture_filter(args.texture_filter);
+    options.differentials = mrt::parse_differentials(args.differentials);
     options.spp = args.spp.value_or(args.reference ? kDefaultReferenceSpp : 1);
     options.fixed_spp = args.spp.has_value();
     options.spp_initial = args.spp_initial;
@@ -155,6 +157,7 @@ int run(const Arguments& args) {
         stats.spp = out.spp;
         stats.filter = mrt::to_string(options.filter);
         stats.texture_filter = mrt::to_string(options.texture_filter);
+        stats.differentials = mrt::to_string(options.differentials);
         stats.passes = out.passes;
         stats.last_pass_seconds = out.last_pass_seconds;
         stats.time_budget = options.time_budget;
@@ -239,6 +242,12 @@ int main(int argc, char** argv) {
                    "differentials) or anisotropic (from the differentials' parallelogram)")
         ->check(CLI::IsMember({"none", "distance", "trilinear", "anisotropic"}))
         ->default_val("anisotropic");
+    app.add_option("--differentials", args.differentials,
+                   "Which rays carry ray differentials: when-read (where a texture filter reads "
+                   "them) or always (every ray at every hit; with --texture-filter none this "
+                   "measures what carrying them costs)")
+        ->check(CLI::IsMember({"when-read", "always"}))
+        ->default_val("when-read");
     app.add_option("--width", args.width, "Image width (default: the scene camera's)")
         ->check(CLI::Range(1, 65536));
     app.add_option("--height", args.height, "Image height (default: the scene camera's)")

@@ -84,8 +84,13 @@ inline float footprint_scale(int samples_per_pixel) {
 template <typename Sampling>
 class RayTree {
   public:
-    RayTree(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures, int max_depth)
-        : m_scene(scene), m_bvh(bvh), m_textures(textures), m_max_depth(max_depth) {}
+    RayTree(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures, int max_depth,
+            Differentials differentials = Differentials::WhenRead)
+        : m_scene(scene),
+          m_bvh(bvh),
+          m_textures(textures),
+          m_max_depth(max_depth),
+          m_always_carry(differentials == Differentials::Always) {}
 
     /// Radiance arriving along `ray` (reflection/refraction depth `depth` so far; `weight` is
     /// the product of the coefficients that scale this ray's contribution to the pixel).
@@ -97,7 +102,8 @@ class RayTree {
     template <typename DifferentialFunction>
     Rgb camera_radiance(const Ray& ray, DifferentialFunction&& differential, RayCounters& counters,
                         Sampling& sampling) const {
-        if (m_textures.filter() == TextureFilter::None || m_scene.textures.empty()) {
+        if (!m_always_carry &&
+            (m_textures.filter() == TextureFilter::None || m_scene.textures.empty())) {
             return radiance(ray, 0, counters, sampling);
         }
         const RayFootprint footprint = RayFootprint::camera(differential());
@@ -116,6 +122,7 @@ class RayTree {
     const SceneBvh& m_bvh;
     const TextureSampler& m_textures;
     int m_max_depth;
+    bool m_always_carry;
 };
 
 template <typename Sampling>
@@ -164,7 +171,7 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     // when a texture here or a reflected or refracted ray reads them.
     const bool spawns =
         depth < m_max_depth && (material.reflectivity > 0.0f || material.refracts());
-    if (material.texture < 0 && !spawns) {
+    if (material.texture < 0 && !spawns && !m_always_carry) {
         footprint = nullptr;
     }
     RayDifferential at_hit;

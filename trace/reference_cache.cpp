@@ -31,6 +31,7 @@ json key_json(const ReferenceKey& key) {
             {"width", optional_json(key.width)},
             {"height", optional_json(key.height)},
             {"filter", key.filter},
+            {"texture_filter", key.texture_filter},
             {"spp", key.spp},
             {"seed", key.seed}};
 }

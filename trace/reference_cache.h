@@ -19,13 +19,14 @@ namespace mrt {
 
 /// What a reference image depends on: references with equal keys are interchangeable.
 struct ReferenceKey {
-    std::string scene;          ///< Canonical path of the scene file.
-    std::string scene_hash;     ///< Hash of the scene file's bytes (scene_file_hash).
-    std::optional<int> width;   ///< Requested width in pixels; empty: the scene camera's.
-    std::optional<int> height;  ///< Requested height in pixels; empty: the scene camera's.
-    std::string filter;         ///< Pixel filter in canonical form ("box", "gaussian:0.5").
-    int spp = 0;                ///< Samples per pixel of the reference render.
-    std::uint64_t seed = 0;     ///< Seed of the sample patterns.
+    std::string scene;           ///< Canonical path of the scene file.
+    std::string scene_hash;      ///< Hash of the scene file's bytes (scene_file_hash).
+    std::optional<int> width;    ///< Requested width in pixels; empty: the scene camera's.
+    std::optional<int> height;   ///< Requested height in pixels; empty: the scene camera's.
+    std::string filter;          ///< Pixel filter in canonical form ("box", "gaussian:0.5").
+    std::string texture_filter;  ///< As --texture-filter spells it.
+    int spp = 0;                 ///< Samples per pixel of the reference render.
+    std::uint64_t seed = 0;      ///< Seed of the sample patterns.
 
     bool operator==(const ReferenceKey&) const = default;
 };

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <optional>
+#include <string>
 
 namespace mrt {
 
@@ -28,6 +29,20 @@ struct RayCounters {
     }
 };
 
+/// Which rays carry ray differentials.
+enum class Differentials {
+    /// Camera rays when the texture filter reads them and the scene has a texture; at each hit
+    /// only when a texture there or a reflected or refracted ray reads them. The default.
+    WhenRead,
+    /// Every ray, transferred and propagated at every hit whether or not anything reads them:
+    /// with the `none` texture filter this prices carrying them (lookups stay unfiltered).
+    Always,
+};
+
+/// Parses "when-read" | "always"; throws mrt::Error otherwise.
+Differentials parse_differentials(const std::string& text);
+std::string to_string(Differentials differentials);
+
 struct RenderOptions {
     int width = 0;           ///< Image width in pixels.
     int height = 0;          ///< Image height in pixels.
@@ -39,6 +54,7 @@ struct RenderOptions {
     PixelFilter filter;      ///< Reconstruction filter every sample is splatted through.
     /// How textures are filtered (Igehy §4); all but None make rays carry differentials.
     TextureFilter texture_filter = TextureFilter::Anisotropic;
+    Differentials differentials = Differentials::WhenRead;
 
     // The distributed tracer (trace/distributed.h).
     bool fixed_spp = false;       ///< One stratified batch of `spp` samples, no adaptation.

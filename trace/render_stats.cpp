@@ -40,6 +40,7 @@ void write_render_stats(const std::filesystem::path& file, const RenderStats& st
         {"render_seconds", stats.render_seconds},
         {"filter", stats.filter},
         {"texture_filter", stats.texture_filter},
+        {"differentials", stats.differentials},
         {"passes", stats.passes},
         {"last_pass_seconds", stats.last_pass_seconds},
         {"time_budget", stats.time_budget > 0.0 ? nlohmann::json(stats.time_budget) : nullptr},

@@ -23,13 +23,14 @@ struct RenderStats {
     double build_seconds = 0.0;   ///< Building acceleration structures.
     double render_seconds = 0.0;  ///< Tracing the image.
     RayCounters rays;
-    std::string filter = "box";           ///< Reconstruction filter, as --filter spells it.
-    std::string texture_filter = "none";  ///< As --texture-filter spells it.
-    int passes = 1;                       ///< Passes over the image.
-    double last_pass_seconds = 0.0;       ///< Duration of the final pass.
-    double time_budget = 0.0;             ///< Requested budget in seconds; 0 = none.
-    std::uint64_t samples = 0;            ///< Camera samples in all.
-    std::optional<double> std_error;      ///< RMS standard error of a reference.
+    std::string filter = "box";               ///< Reconstruction filter, as --filter spells it.
+    std::string texture_filter = "none";      ///< As --texture-filter spells it.
+    std::string differentials = "when-read";  ///< As --differentials spells it.
+    int passes = 1;                           ///< Passes over the image.
+    double last_pass_seconds = 0.0;           ///< Duration of the final pass.
+    double time_budget = 0.0;                 ///< Requested budget in seconds; 0 = none.
+    std::uint64_t samples = 0;                ///< Camera samples in all.
+    std::optional<double> std_error;          ///< RMS standard error of a reference.
     std::uint64_t unique_triangles = 0;
     std::uint64_t instanced_triangles = 0;
 };

@@ -17,7 +17,7 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Textu
                             const RenderOptions& options) {
     const CameraRays camera(scene.camera, options.width, options.height);
     const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
-    const WhittedTracer tracer(scene, bvh, textures, max_depth);
+    const WhittedTracer tracer(scene, bvh, textures, max_depth, options.differentials);
     const int spp = std::max(1, options.spp);
     const float scale = footprint_scale(spp);
     Film film(options.width, options.height, options.filter);
