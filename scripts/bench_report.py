@@ -57,6 +57,15 @@ def main():
     report = kernels(os.path.join(work, "kernels.json"))
     report["whitted_renders"] = renders(work, "render")
     report["distributed_renders"] = renders(work, "distributed")
+    carried = {r["scene"]: r for r in renders(work, "differentials")}
+    if "always" in carried and "when-read" in carried:
+        report["differentials_overhead"] = {
+            "scene": "desk", "spp": 4, "texture_filter": "none",
+            "median_render_seconds_when_read": carried["when-read"]["median_render_seconds"],
+            "median_render_seconds_always": carried["always"]["median_render_seconds"],
+            "ratio": carried["always"]["median_render_seconds"]
+            / carried["when-read"]["median_render_seconds"],
+        }
     text = json.dumps(report, indent=2)
     print(text)
     if len(sys.argv) > 2 and sys.argv[2]:

@@ -39,6 +39,10 @@ import os
 import sys
 from dataclasses import dataclass
 
+# mrt-trace options that only say how many samples a run takes: runs differing in these alone
+# are points on one curve.
+SAMPLE_COUNT_OPTIONS = {"spp", "spp-max", "spp-initial", "target-error", "time-budget"}
+
 # RMSE levels reported besides the baseline's when they lie within the range of the curves.
 ERROR_LEVELS = (0.05, 0.02, 0.01, 0.005)
 
@@ -84,13 +88,19 @@ class Run:
 
     @property
     def curve(self):
-        """The curve the run belongs to: its method, except that runs stopped by a time budget
-        form their own curve (they allocate samples differently from fixed-count runs, and
-        mixing the two would hide one behind the other)."""
+        """The curve the run belongs to: its method; runs stopped by a time budget form their own
+        curve (they allocate samples differently from fixed-count runs, and mixing the two would
+        hide one behind the other), and so do runs with an option that changes what is computed
+        rather than how many samples (e.g. texture-filter=none)."""
         options = self.spec.split(":", 1)[1] if ":" in self.spec else ""
-        if any(o.split("=", 1)[0] == "time-budget" for o in options.split(",")):
-            return f"{self.method} (time budget)"
-        return self.method
+        labels = []
+        for option in filter(None, options.split(",")):
+            key = option.split("=", 1)[0]
+            if key == "time-budget":
+                labels.insert(0, "time budget")
+            elif key not in SAMPLE_COUNT_OPTIONS:
+                labels.append(option)
+        return f"{self.method} ({', '.join(labels)})" if labels else self.method
 
     def seconds(self, time_key):
         return getattr(self, time_key)

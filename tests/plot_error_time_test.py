@@ -119,12 +119,29 @@ class Interpolation(unittest.TestCase):
 
     def test_interpolation_is_linear_in_log_time_and_log_error(self):
         # Runs (1 s, 0.08) and (3 s, 0.02): 0.04 is halfway in log error, so t = √3.
-        results = load(self.tmp.name, "two", [("distributed", "d:a", 1.0, 0.08),
-                                              ("distributed", "d:b", 3.0, 0.02)])
+        results = load(self.tmp.name, "two", [("distributed", "d:spp=2", 1.0, 0.08),
+                                              ("distributed", "d:spp=8", 3.0, 0.02)])
         curve = pet.build_curves(results, "rmse", "render_seconds")["distributed"]
         self.assertAlmostEqual(curve.time_to(0.04) / math.sqrt(3), 1, delta=REL)
         # And halfway in log time, t = √3, the error is √(0.08·0.02) = 0.04.
         self.assertAlmostEqual(curve.value_at(math.sqrt(3)) / 0.04, 1, delta=REL)
+
+    def test_options_that_change_the_computation_make_their_own_curve(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            results = load(tmp, "filters", [
+                ("whitted", "whitted:texture-filter=none", 1.0, 0.2),
+                ("whitted", "whitted:texture-filter=none,spp=4", 4.0, 0.1),
+                ("whitted", "whitted:spp=4,texture-filter=trilinear", 4.0, 0.08),
+                ("whitted", "whitted", 1.0, 0.05),
+                ("distributed", "distributed:time-budget=2,texture-filter=none", 2.0, 0.1),
+                ("distributed", "distributed:spp-max=16,spp-initial=4", 3.0, 0.1),
+            ])
+            self.assertEqual([r.curve for r in results.runs], [
+                "whitted (texture-filter=none)", "whitted (texture-filter=none)",
+                "whitted (texture-filter=trilinear)", "whitted",
+                "distributed (time budget, texture-filter=none)", "distributed"])
+            curves = pet.build_curves(results, "rmse", "render_seconds")
+            self.assertEqual(len(curves["whitted (texture-filter=none)"].times()), 2)
 
     def test_no_extrapolation_outside_the_runs(self):
         distributed, cone = self.curves["distributed"], self.curves["cone"]
