@@ -88,7 +88,9 @@ inline Vec3f normalised_derivative(const Vec3f& n, const Vec3f& dn) {
     return RayDifferential::unit_derivative(n, dn);
 }
 
-/// Surface differential of a triangle with world-space vertices p[3], unnormalised vertex
+/// Surface differential of a triangle with world-space vertices p[3] (only their differences
+/// are read, so any common translation may be left out — better so far from the origin),
+/// unnormalised vertex
 /// normals n[3] (world space) and uvs uv[3], for a hit at barycentric (b1, b2) whose position
 /// differentials are dp_dx, dp_dy: barycentric coordinates as linear functions of position
 /// (the planes of §3.3), so dN and dT are exact for the interpolation. `flip` negates the

@@ -54,11 +54,16 @@ SurfaceDifferential make_surface_differential(const Scene& scene, const SceneHit
                                               const Vec3f& dp_dy) {
     const Mesh& mesh = scene.meshes[hit.mesh];
     const auto& tri = mesh.triangles[hit.triangle];
+    // The derivatives depend on the edges only, so the vertices are taken relative to the
+    // first one in object space and the edges mapped by the transform's linear part: world
+    // coordinates far from the origin would round small edges (dN off by percent at 1e5).
+    const Vec3f& origin = mesh.positions[tri[0]];
+    const auto linear = hit.object_to_world.linear();
     Vec3f p[3];
     Vec3f n[3];
     Vec2f uv[3];
     for (int i = 0; i < 3; ++i) {
-        p[i] = hit.object_to_world * mesh.positions[tri[static_cast<std::size_t>(i)]];
+        p[i] = linear * (mesh.positions[tri[static_cast<std::size_t>(i)]] - origin);
         n[i] = sp.normal_matrix * mesh.normals[tri[static_cast<std::size_t>(i)]];
         uv[i] = mesh.has_uvs() ? mesh.uvs[tri[static_cast<std::size_t>(i)]] : Vec2f::Zero();
     }
