@@ -127,19 +127,12 @@ std::vector<PathVertex> trace_path(const Scene& scene, const SceneBvh& bvh,
             }
         }
         if (mirror) {
-            Vec3f r = reflect(d, sp.shading_normal);
-            Vec3f n = sp.shading_normal;
-            Vec3f dn_dx = surface.dn_dx;
-            Vec3f dn_dy = surface.dn_dy;
-            if (r.dot(sp.geometric_normal) <= 0.0f) {
-                r = reflect(d, sp.geometric_normal);
-                n = sp.geometric_normal;
-                dn_dx = dn_dy = Vec3f::Zero();
-                v.fallback = true;
-            }
+            const Mirror m = mirror_at(d, sp, surface);
+            const Vec3f& r = m.direction;
+            v.fallback = v.fallback || m.about_geometric;
             v.direction = fold_to_side(r, sp.geometric_normal, true);
             v.fallback = v.fallback || v.direction != r;
-            v.differential = at_hit.reflect(d, n, dn_dx, dn_dy);
+            v.differential = at_hit.reflect(d, m.normal, m.dn_dx, m.dn_dy);
         }
         path.push_back(v);
         if (event == Event::Stop) {

@@ -61,6 +61,27 @@ inline Vec3f fold_to_side(const Vec3f& direction, const Vec3f& geometric_normal,
     return direction - 2.0f * side * geometric_normal;
 }
 
+/// The mirror reflection at a hit: its direction and the normal (with derivatives) it mirrors
+/// about. That is the shading normal, unless an interpolated normal would mirror the ray below
+/// the geometric surface; there the flat triangle's own mirror direction is the right one
+/// (`about_geometric`), and its normal does not vary.
+struct Mirror {
+    Vec3f direction;
+    Vec3f normal;
+    Vec3f dn_dx;
+    Vec3f dn_dy;
+    bool about_geometric = false;
+};
+
+inline Mirror mirror_at(const Vec3f& d, const SurfacePoint& sp, const SurfaceDifferential& s) {
+    const Vec3f r = reflect(d, sp.shading_normal);
+    if (r.dot(sp.geometric_normal) > 0.0f) {
+        return {r, sp.shading_normal, s.dn_dx, s.dn_dy, false};
+    }
+    return {reflect(d, sp.geometric_normal), sp.geometric_normal, Vec3f::Zero(), Vec3f::Zero(),
+            true};
+}
+
 /// What a ray carries for texture filtering (Igehy §4): its differentials, and for the
 /// `distance` filter the distance travelled before its origin and the camera's angular pixel
 /// spread. Rays without one (filter `none`, untextured scenes) skip the footprint work.
@@ -231,24 +252,15 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
         }
     }
     if (reflect_weight > 0.0f && weight * reflect_weight >= kMinimumWeight) {
-        Vec3f mirror = reflect(d, sp.shading_normal);
-        Vec3f mirror_normal = sp.shading_normal;
-        Vec3f dn_dx = surface.dn_dx;
-        Vec3f dn_dy = surface.dn_dy;
-        // An interpolated normal can mirror a ray below the geometric surface; there the flat
-        // triangle's own mirror direction is the right one.
-        if (mirror.dot(sp.geometric_normal) <= 0.0f) {
-            mirror = reflect(d, sp.geometric_normal);
-            mirror_normal = sp.geometric_normal;
-            dn_dx = dn_dy = Vec3f::Zero();
-        }
-        const Vec3f r =
-            fold_to_side(sampling.spread(mirror, material.roughness), sp.geometric_normal, true);
+        const Mirror mirror = mirror_at(d, sp, surface);
+        const Vec3f r = fold_to_side(sampling.spread(mirror.direction, material.roughness),
+                                     sp.geometric_normal, true);
         ++counters.secondary;
         const Ray reflected{sp.spawn_origin(r), r, kInfinity};
         RayFootprint child;
         if (footprint != nullptr) {
-            child = {at_hit.reflect(d, mirror_normal, dn_dx, dn_dy), travelled, footprint->spread};
+            child = {at_hit.reflect(d, mirror.normal, mirror.dn_dx, mirror.dn_dy), travelled,
+                     footprint->spread};
         }
         result += reflect_weight * radiance(reflected, depth + 1, counters, sampling,
                                             weight * reflect_weight,
