@@ -23,6 +23,18 @@ float angle_between(const Vec3f& a, const Vec3f& b) {
     return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
+/// The pinhole differential at (x, y) against central differences of the rays at ±0.01 pixel.
+void expect_matches_neighbouring_pinhole_rays(const CameraRays& rays, float x, float y) {
+    constexpr float h = 0.01f;
+    const RayDifferential d = rays.pinhole_differential(x, y);
+    const Vec3f fd_x =
+        (rays.pinhole_ray(x + h, y).direction - rays.pinhole_ray(x - h, y).direction) / (2 * h);
+    const Vec3f fd_y =
+        (rays.pinhole_ray(x, y + h).direction - rays.pinhole_ray(x, y - h).direction) / (2 * h);
+    EXPECT_LT((d.dd_dx - fd_x).norm(), 1e-3f * fd_x.norm());
+    EXPECT_LT((d.dd_dy - fd_y).norm(), 1e-3f * fd_y.norm());
+}
+
 TEST(CameraRays, CentreRayLooksAtTheTarget) {
     const CameraRays rays(test_camera(), 200, 100);
     const Ray r = rays.pinhole_ray(100.0f, 50.0f);
@@ -77,12 +89,7 @@ TEST(CameraRays, DifferentialsMatchNeighbouringRays) {
     const CameraRays rays(c, 200, 100);
     const float x = 37.3f, y = 81.9f, h = 0.01f;
     const RayDifferential pin = rays.pinhole_differential(x, y);
-    const Vec3f fd_x =
-        (rays.pinhole_ray(x + h, y).direction - rays.pinhole_ray(x - h, y).direction) / (2 * h);
-    const Vec3f fd_y =
-        (rays.pinhole_ray(x, y + h).direction - rays.pinhole_ray(x, y - h).direction) / (2 * h);
-    EXPECT_LT((pin.dd_dx - fd_x).norm(), 1e-3f * fd_x.norm());
-    EXPECT_LT((pin.dd_dy - fd_y).norm(), 1e-3f * fd_y.norm());
+    expect_matches_neighbouring_pinhole_rays(rays, x, y);
     EXPECT_EQ(pin.dp_dx, Vec3f::Zero());
     // Half the step for four samples a pixel.
     EXPECT_LT((rays.pinhole_differential(x, y, 0.5f).dd_dx - 0.5f * pin.dd_dx).norm(), 1e-7f);
@@ -118,14 +125,7 @@ TEST(CameraRays, NonSquarePixelsStretchTheHorizontalStepAndItsDifferential) {
                 0.5f * c.vertical_fov, 1e-5f);
     EXPECT_NEAR(angle_between(rays.pinhole_ray(200.0f, 50.0f).direction, forward),
                 std::atan(2.5f * 2.0f * std::tan(0.5f * c.vertical_fov)), 1e-5f);
-    const float x = 151.2f, y = 12.6f, h = 0.01f;
-    const RayDifferential d = rays.pinhole_differential(x, y);
-    const Vec3f fd_x =
-        (rays.pinhole_ray(x + h, y).direction - rays.pinhole_ray(x - h, y).direction) / (2 * h);
-    const Vec3f fd_y =
-        (rays.pinhole_ray(x, y + h).direction - rays.pinhole_ray(x, y - h).direction) / (2 * h);
-    EXPECT_LT((d.dd_dx - fd_x).norm(), 1e-3f * fd_x.norm());
-    EXPECT_LT((d.dd_dy - fd_y).norm(), 1e-3f * fd_y.norm());
+    expect_matches_neighbouring_pinhole_rays(rays, 151.2f, 12.6f);
     // At the image centre the footprint is an ellipse 2.5 times as wide as tall.
     const FootprintCone cone = FootprintCone::from_differential(
         rays.pinhole_ray(100.0f, 50.0f).direction, rays.pinhole_differential(100.0f, 50.0f));
