@@ -8,6 +8,7 @@
 #include "common/mesh_io.h"
 #include "common/procedural.h"
 #include "common/scene.h"
+#include "tests/test_support.h"
 #include "trace/bvh_build.h"
 #include "trace/scene_bvh.h"
 #include "trace/triangle_bvh.h"
@@ -119,25 +120,9 @@ class BruteForce {
     std::vector<float> m_coords[3][3];  ///< [vertex][axis][triangle]
 };
 
-std::optional<std::filesystem::path> find_data_file(const std::string& name) {
-    if (auto found = resolve_data_file(name, {})) {
-        return found;
-    }
-    // Run outside ctest (no MRT_DATA): the directories CMake gave the test.
-    std::string dirs = MRT_TEST_DATA_DIRS;
-    std::stringstream stream(dirs);
-    for (std::string dir; std::getline(stream, dir, ':');) {
-        const std::filesystem::path candidate = std::filesystem::path(dir) / name;
-        if (!dir.empty() && std::filesystem::is_regular_file(candidate)) {
-            return candidate;
-        }
-    }
-    return std::nullopt;
-}
-
 const Mesh& bunny() {
     static const Mesh mesh = [] {
-        const auto path = find_data_file("meshes/stanford-bunny.obj");
+        const auto path = testing::find_data_file("meshes/stanford-bunny.obj");
         if (!path) {
             throw Error("meshes/stanford-bunny.obj not found on the data search path (MRT_DATA)");
         }

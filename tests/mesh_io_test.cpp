@@ -2,6 +2,7 @@
 #include "common/data_path.h"
 #include "common/error.h"
 #include "common/mesh.h"
+#include "tests/test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -922,23 +923,6 @@ TEST(MeshIo, LoadsConcurrentlyFromManyThreads) {
 // ------------------------------------------------------------------------------------------
 // The real meshes of ../shared/data.
 
-std::optional<fs::path> find_data_file(const std::string& name) {
-    if (const auto found = resolve_data_file(name, fs::path())) {
-        return found;
-    }
-    // Run by hand rather than through ctest, MRT_DATA may be unset: use the build's own list.
-    std::string_view dirs = MRT_TEST_DATA_DIRS;
-    while (!dirs.empty()) {
-        const std::size_t colon = dirs.find(':');
-        const fs::path candidate = fs::path(dirs.substr(0, colon)) / name;
-        if (fs::is_regular_file(candidate)) {
-            return candidate;
-        }
-        dirs = colon == std::string_view::npos ? std::string_view() : dirs.substr(colon + 1);
-    }
-    return std::nullopt;
-}
-
 Eigen::AlignedBox3f obj_bounds(const fs::path& file) {
     Eigen::AlignedBox3f box(Vec3f::Constant(kInfinity), Vec3f::Constant(-kInfinity));
     std::ifstream in(file);
@@ -971,7 +955,7 @@ class RealMeshes : public ::testing::TestWithParam<RealMesh> {};
 
 TEST_P(RealMeshes, LoadWithExpectedCountsAndSaneGeometry) {
     const RealMesh& expected = GetParam();
-    const std::optional<fs::path> file = find_data_file(expected.file);
+    const std::optional<fs::path> file = testing::find_data_file(expected.file);
     ASSERT_TRUE(file) << expected.file << " not found along MRT_DATA or " << MRT_TEST_DATA_DIRS;
     const MeshLoadResult r = load_mesh(*file, 2);
     const Mesh& m = r.mesh;

@@ -1,6 +1,7 @@
 #pragma once
 // Small helpers shared by the test suites.
 
+#include "common/data_path.h"
 #include "common/error.h"
 #include "common/scene.h"
 #include "trace/render.h"
@@ -9,7 +10,9 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <system_error>
 
 namespace mrt::testing {
@@ -23,6 +26,27 @@ std::string error_message(const F& f) {
         return e.what();
     }
     return "(no error thrown)";
+}
+
+/// A data file (e.g. "meshes/stanford-bunny.obj") on the data search path; run by hand rather
+/// than through ctest MRT_DATA may be unset, so the build's own list (MRT_TEST_DATA_DIRS, when
+/// the suite defines it) is tried too.
+inline std::optional<std::filesystem::path> find_data_file(const std::string& name) {
+    if (auto found = resolve_data_file(name, {})) {
+        return found;
+    }
+#ifdef MRT_TEST_DATA_DIRS
+    std::string_view dirs = MRT_TEST_DATA_DIRS;
+    while (!dirs.empty()) {
+        const std::size_t colon = dirs.find(':');
+        const std::filesystem::path candidate = std::filesystem::path(dirs.substr(0, colon)) / name;
+        if (!dirs.substr(0, colon).empty() && std::filesystem::is_regular_file(candidate)) {
+            return candidate;
+        }
+        dirs = colon == std::string_view::npos ? std::string_view() : dirs.substr(colon + 1);
+    }
+#endif
+    return std::nullopt;
 }
 
 /// Render options for the scene camera's full image, without a progress bar.

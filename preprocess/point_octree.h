@@ -1,0 +1,86 @@
+#pragma once
+// The multi-resolution point hierarchy of Wand & Straßer §3, in memory and unquantized: an
+// octree built top-down over a triangle mesh. Each node lays a k³ grid over its cube and draws
+// area-uniform samples on the triangles it received; a triangle whose samples fall into more
+// than `max_representatives` voxels is large at this resolution and stays in the node as a
+// triangle; the others are represented by one point at the centre of every voxel their samples
+// reach, and go on down to the children. So a node's points stand for exactly the triangles
+// below it (no surface counted twice) and the leaves end with the original triangles.
+//
+// Point attributes are prefiltered: `oversampling` samples per voxel face of area are averaged
+// with a Gaussian of one voxel side (σ, cut at 2.5σ) around each point —
+// materials, textures (the texture at each sample's uv, so a point's colour is the texture
+// averaged over its Gaussian), normals, and the normal gradient fitted to the samples' normals
+// (preprocess/normal_gradient.h).
+
+#include "common/math.h"
+#include "common/mesh.h"
+#include "common/scene.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace mrt {
+
+class TextureSampler;
+
+struct PointOctreeOptions {
+    int grid = 16;                ///< k: voxels per cube side at every node.
+    int max_representatives = 3;  ///< A triangle with more stays in the node as a triangle.
+    /// Prefiltering samples per voxel face of surface area (the paper's c over a minimum
+    /// density of one per voxel face; representatives are chosen from 4 per voxel face).
+    int oversampling = 100;
+    std::uint64_t seed = 0;  ///< Seed of the sample sequences.
+    int max_depth = 40;      ///< Below this every remaining triangle is kept.
+};
+
+/// A representative point with its prefiltered attributes (before quantization).
+struct OctreePoint {
+    std::array<std::uint8_t, 3> voxel{};  ///< Voxel index in the node's grid; position = centre.
+    /// Gaussian-weighted average normal (unit), as the hierarchy file will store it.
+    Vec3f normal = Vec3f::UnitZ();
+    /// Normal gradient (§3.2) in the canonical tangent frame of `normal` (canonical_tangent):
+    /// columns ∂n/∂u, ∂n/∂v of the normal's deviation on the plane at distance one.
+    Mat2f gradient = Mat2f::Zero();
+    bool gradient_fitted = false;  ///< False: the samples did not determine it (it is zero).
+    Rgb diffuse = Rgb::Zero();     ///< Average diffuse albedo times texture.
+    Rgb specular = Rgb::Zero();
+    float phong_exponent = 0.0f;
+    float reflectivity = 0.0f;
+    float transparency = 0.0f;
+    float roughness = 0.0f;
+    float ior = 1.0f;
+    /// The samples' area per unit Gaussian weight: the surface area the point stands for,
+    /// relative to a voxel face (side²); about 1 for a flat surface through the voxel.
+    float coverage = 0.0f;
+};
+
+struct OctreeNode {
+    Vec3f origin = Vec3f::Zero();  ///< Minimum corner of the node's cube.
+    float side = 0.0f;             ///< Edge length of the cube; voxel side = side / k.
+    int level = 0;
+    std::vector<OctreePoint> points;
+    std::vector<std::uint32_t> triangles;  ///< Mesh triangles kept here, ascending.
+    std::array<std::int32_t, 8> children{-1, -1, -1, -1, -1, -1, -1, -1};  ///< −1: none.
+    Vec3f sphere_centre = Vec3f::Zero();  ///< Bounding sphere of everything in the subtree.
+    float sphere_radius = 0.0f;
+
+    Vec3f voxel_centre(const std::array<std::uint8_t, 3>& v, int grid) const {
+        const float step = side / static_cast<float>(grid);
+        return origin + step * (Vec3f(v[0], v[1], v[2]) + Vec3f::Constant(0.5f));
+    }
+};
+
+struct PointOctree {
+    PointOctreeOptions options;
+    std::vector<OctreeNode> nodes;  ///< nodes[0] is the root; children follow their parents.
+};
+
+/// Builds the hierarchy over `mesh` (world space; its per-triangle materials index
+/// `materials`). `textures` may be null when no material has a texture. Deterministic for the
+/// options' seed whatever the number of threads.
+PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& materials,
+                               const TextureSampler* textures, const PointOctreeOptions& options);
+
+}  // namespace mrt
