@@ -12,6 +12,8 @@
 #include "preprocess/normal_gradient.h"
 #include "common/quantization.h"
 
+#include "tests/test_support.h"
+
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
 
@@ -27,21 +29,8 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-/// Angle between two directions, in double, accurate for tiny angles and for vectors that are
-/// unit only to float precision (acos of their dot product would be neither).
-double angle_between(const Vec3d& a, const Vec3d& b) {
-    return std::atan2(a.cross(b).norm(), a.dot(b));
-}
-
-/// A uniformly distributed unit vector.
-Vec3d random_direction(std::mt19937_64& rng) {
-    std::normal_distribution<double> gauss;
-    Vec3d v;
-    do {
-        v = Vec3d(gauss(rng), gauss(rng), gauss(rng));
-    } while (v.norm() < 1e-6);
-    return v.normalized();
-}
+using testing::angle_between;
+using testing::random_direction;
 
 /// A uniformly distributed rotation (normalised Gaussian quaternion).
 Eigen::Matrix3d random_rotation(std::mt19937_64& rng) {

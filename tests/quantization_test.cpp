@@ -5,6 +5,8 @@
 
 #include "common/quantization.h"
 
+#include "tests/test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -20,20 +22,8 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-/// Angle between two directions, in double, accurate for tiny angles (no acos).
-double angle_between(const Vec3d& a, const Vec3d& b) {
-    return std::atan2(a.cross(b).norm(), a.dot(b));
-}
-
-/// A uniformly distributed unit vector (normalised Gaussian triple).
-Vec3d random_direction(std::mt19937_64& rng) {
-    std::normal_distribution<double> gauss;
-    Vec3d v;
-    do {
-        v = Vec3d(gauss(rng), gauss(rng), gauss(rng));
-    } while (v.norm() < 1e-6);
-    return v.normalized();
-}
+using testing::angle_between;
+using testing::random_direction;
 
 /// Units in the last place of a float of magnitude |x|.
 double ulp(double x) {

@@ -9,8 +9,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <optional>
+#include <random>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -47,6 +49,22 @@ inline std::optional<std::filesystem::path> find_data_file(const std::string& na
     }
 #endif
     return std::nullopt;
+}
+
+/// Angle between two directions, in double, accurate for tiny angles and for vectors that are
+/// unit only to float precision (acos of their dot product would be neither).
+inline double angle_between(const Vec3d& a, const Vec3d& b) {
+    return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+/// A uniformly distributed unit vector (a normalised Gaussian triple).
+inline Vec3d random_direction(std::mt19937_64& rng) {
+    std::normal_distribution<double> gauss;
+    Vec3d v;
+    do {
+        v = Vec3d(gauss(rng), gauss(rng), gauss(rng));
+    } while (v.norm() < 1e-6);
+    return v.normalized();
 }
 
 /// Render options for the scene camera's full image, without a progress bar.
