@@ -3,6 +3,7 @@
 #include "common/camera_rays.h"
 #include "common/random.h"
 #include "common/sampling.h"
+#include "common/stopwatch.h"
 #include "common/texture.h"
 #include "trace/film.h"
 #include "trace/ray_tree.h"
@@ -16,12 +17,6 @@
 namespace mrt {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 /// Side of the square neighbourhood whose pooled samples estimate a pixel's variance.
 constexpr int kNeighbourhood = 5;

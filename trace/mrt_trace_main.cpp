@@ -3,6 +3,7 @@
 #include "common/error.h"
 #include "common/image.h"
 #include "common/scene_loader.h"
+#include "common/stopwatch.h"
 #include "trace/distributed.h"
 #include "trace/pixel_filter.h"
 #include "trace/render_stats.h"
@@ -23,11 +24,8 @@
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using mrt::Clock;
+using mrt::seconds_since;
 
 struct Arguments {
     std::filesystem::path scene;

@@ -2,8 +2,8 @@
 
 #include "common/atomic_file.h"
 #include "common/error.h"
+#include "common/memory_usage.h"
 
-#include <sys/resource.h>
 #include <nlohmann/json.hpp>
 
 #include <fstream>
@@ -15,15 +15,6 @@ namespace mrt {
 std::ostream& operator<<(std::ostream& os, const RayCounters& c) {
     return os << "RayCounters{primary " << c.primary << ", secondary " << c.secondary << ", shadow "
               << c.shadow << "}";
-}
-
-std::uint64_t peak_rss_bytes() {
-    rusage usage{};
-    if (getrusage(RUSAGE_SELF, &usage) != 0) {
-        return 0;
-    }
-    // Linux reports ru_maxrss in kibibytes.
-    return static_cast<std::uint64_t>(usage.ru_maxrss) * 1024u;
 }
 
 void write_render_stats(const std::filesystem::path& file, const RenderStats& stats) {

@@ -35,9 +35,6 @@ struct RenderStats {
     std::uint64_t instanced_triangles = 0;
 };
 
-/// Peak resident set size of this process so far, in bytes.
-std::uint64_t peak_rss_bytes();
-
 /// Writes the stats as JSON (to a temporary name, renamed into place). Throws mrt::Error.
 void write_render_stats(const std::filesystem::path& file, const RenderStats& stats);
 

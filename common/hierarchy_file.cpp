@@ -1,0 +1,351 @@
+#include "common/hierarchy_file.h"
+
+#include "common/error.h"
+
+#include <fmt/format.h>
+
+#include <bit>
+#include <cmath>
+#include <limits>
+
+namespace mrt {
+
+namespace {
+
+constexpr std::uint32_t kHead = section_tag("HEAD");
+constexpr std::uint32_t kNode = section_tag("NODE");
+constexpr std::uint32_t kCore = section_tag("PCOR");
+constexpr std::uint32_t kDiffuse = section_tag("PDIF");
+constexpr std::uint32_t kSpecular = section_tag("PSPC");
+constexpr std::uint32_t kMirror = section_tag("PMIR");
+constexpr std::uint32_t kRefraction = section_tag("PTRN");
+constexpr std::uint32_t kNodeTriangles = section_tag("NTRI");
+constexpr std::uint32_t kPositions = section_tag("VPOS");
+constexpr std::uint32_t kNormals = section_tag("VNRM");
+constexpr std::uint32_t kUvs = section_tag("VTUV");
+constexpr std::uint32_t kTriangles = section_tag("TRIS");
+constexpr std::uint32_t kMaterials = section_tag("TMAT");
+constexpr std::uint32_t kBuild = section_tag("BILD");
+
+constexpr std::uint32_t kNoParent = 0xffffffffu;
+
+std::string where(std::uint32_t tag) {
+    return fmt::format("section '{}'", tag_name(tag));
+}
+
+std::string where(std::uint32_t tag, std::size_t record) {
+    return fmt::format("section '{}' record {}", tag_name(tag), record);
+}
+
+/// The arrays of a hierarchy, from memory (before writing) or from the mapping (after reading),
+/// so the writer and the reader check the same references with the same messages.
+struct HierarchyArrays {
+    int grid = 0;
+    std::span<const HierarchyNode> nodes;
+    std::span<const PointCore> core;
+    std::span<const PointDiffuse> diffuse;
+    std::span<const PointSpecular> specular;
+    std::span<const PointMirror> mirror;
+    std::span<const PointRefraction> refraction;
+    std::span<const std::uint32_t> node_triangles;
+    std::span<const std::array<float, 3>> positions;
+    std::span<const NormalCode> normals;
+    std::span<const std::array<float, 2>> uvs;
+    std::span<const std::array<std::uint32_t, 3>> triangles;
+    std::span<const std::uint32_t> materials;
+};
+
+bool valid_grid(std::int64_t grid) {
+    return grid >= 1 && grid <= kMaxVoxelGridResolution;
+}
+
+/// A channel of one record per `count` items, or (when `optional`) no records at all.
+void check_length(const std::filesystem::path& file, std::uint32_t tag, std::size_t size,
+                  std::size_t count, const char* items, bool optional) {
+    if (size == count || (optional && size == 0)) {
+        return;
+    }
+    throw Error(file, where(tag),
+                fmt::format("{} records, expected {} (one per {}){}", size, count, items,
+                            optional ? " or none" : ""));
+}
+
+void check_lengths(const std::filesystem::path& file, const HierarchyArrays& a) {
+    const std::size_t points = a.core.size();
+    check_length(file, kDiffuse, a.diffuse.size(), points, "point", false);
+    check_length(file, kSpecular, a.specular.size(), points, "point", true);
+    check_length(file, kMirror, a.mirror.size(), points, "point", true);
+    check_length(file, kRefraction, a.refraction.size(), points, "point", true);
+    check_length(file, kNormals, a.normals.size(), a.positions.size(), "vertex", false);
+    check_length(file, kUvs, a.uvs.size(), a.positions.size(), "vertex", true);
+    check_length(file, kMaterials, a.materials.size(), a.triangles.size(), "triangle", false);
+}
+
+bool finite3(const std::array<float, 3>& v) {
+    return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
+
+/// One node's own fields and the ranges it refers to.
+void check_node(const std::filesystem::path& file, const HierarchyArrays& a, std::size_t i) {
+    const HierarchyNode& n = a.nodes[i];
+    const std::string at = where(kNode, i);
+    if (!finite3(n.origin) || !std::isfinite(n.side) || !(n.side > 0.0f)) {
+        throw Error(file, at,
+                    fmt::format("cube origin ({}, {}, {}) side {}: expected finite values and a "
+                                "positive side",
+                                n.origin[0], n.origin[1], n.origin[2], n.side));
+    }
+    if (!finite3(n.sphere_centre) || !std::isfinite(n.sphere_radius) || !(n.sphere_radius >= 0)) {
+        throw Error(file, at,
+                    fmt::format("bounding sphere centre ({}, {}, {}) radius {}: expected finite "
+                                "values and a radius >= 0",
+                                n.sphere_centre[0], n.sphere_centre[1], n.sphere_centre[2],
+                                n.sphere_radius));
+    }
+    // In 64 bits, so that a range wrapping around 2^32 cannot pass.
+    if (std::uint64_t{n.first_point} + n.point_count > a.core.size()) {
+        throw Error(file, at,
+                    fmt::format("points [{}, {} + {}) run past the {} points of section '{}'",
+                                n.first_point, n.first_point, n.point_count, a.core.size(),
+                                tag_name(kCore)));
+    }
+    if (std::uint64_t{n.first_triangle} + n.triangle_count > a.node_triangles.size()) {
+        throw Error(file, at,
+                    fmt::format("triangles [{}, {} + {}) run past the {} entries of section '{}'",
+                                n.first_triangle, n.first_triangle, n.triangle_count,
+                                a.node_triangles.size(), tag_name(kNodeTriangles)));
+    }
+    if (i == 0 && n.parent != kNoParent) {
+        throw Error(file, at,
+                    fmt::format("the root's parent is {}, expected 0xffffffff", n.parent));
+    }
+    if (n.child_mask == 0) {
+        return;
+    }
+    const unsigned children = static_cast<unsigned>(std::popcount(n.child_mask));
+    // Breadth-first order puts children after their parent, which also rules out cycles.
+    if (n.first_child <= i) {
+        throw Error(file, at,
+                    fmt::format("first child {} is not after the node itself (breadth-first "
+                                "order puts children after their parent)",
+                                n.first_child));
+    }
+    if (std::uint64_t{n.first_child} + children > a.nodes.size()) {
+        throw Error(file, at,
+                    fmt::format("children [{}, {} + {}) run past the {} nodes", n.first_child,
+                                n.first_child, children, a.nodes.size()));
+    }
+    for (std::uint32_t c = n.first_child; c < n.first_child + children; ++c) {
+        const HierarchyNode& child = a.nodes[c];
+        if (child.parent != i) {
+            throw Error(
+                file, where(kNode, c),
+                fmt::format("parent is {}, but node {} lists it as a child", child.parent, i));
+        }
+        if (int{child.level} != int{n.level} + 1) {
+            throw Error(file, where(kNode, c),
+                        fmt::format("level {}, expected {} (one below its parent, node {})",
+                                    child.level, int{n.level} + 1, i));
+        }
+    }
+}
+
+/// Every cross-reference of the arrays (lengths were checked before).
+void check_references(const std::filesystem::path& file, const HierarchyArrays& a,
+                      std::optional<std::uint32_t> material_count) {
+    for (std::size_t i = 0; i < a.nodes.size(); ++i) {
+        check_node(file, a, i);
+    }
+    // Every node but the root is the child of the node its parent field names; with the checks
+    // above (children point back to their parent) the nodes form one tree rooted at node 0.
+    for (std::size_t i = 1; i < a.nodes.size(); ++i) {
+        const std::uint32_t p = a.nodes[i].parent;
+        const bool listed = p < i && a.nodes[p].child_mask != 0 && a.nodes[p].first_child <= i &&
+                            i < std::uint64_t{a.nodes[p].first_child} +
+                                    static_cast<unsigned>(std::popcount(a.nodes[p].child_mask));
+        if (!listed) {
+            throw Error(file, where(kNode, i),
+                        p == kNoParent
+                            ? std::string("has no parent, but only node 0 is a root")
+                            : fmt::format("parent {} does not list it among its children", p));
+        }
+    }
+    for (std::size_t i = 0; i < a.core.size(); ++i) {
+        const VoxelCode& v = a.core[i].voxel;
+        for (int axis = 0; axis < 3; ++axis) {
+            if (int{v[axis]} >= a.grid) {
+                throw Error(file, where(kCore, i),
+                            fmt::format("voxel ({}, {}, {}) lies outside the {}^3 grid", v[0], v[1],
+                                        v[2], a.grid));
+            }
+        }
+    }
+    for (std::size_t i = 0; i < a.node_triangles.size(); ++i) {
+        if (a.node_triangles[i] >= a.triangles.size()) {
+            throw Error(file, where(kNodeTriangles, i),
+                        fmt::format("triangle {} does not exist (section '{}' has {})",
+                                    a.node_triangles[i], tag_name(kTriangles), a.triangles.size()));
+        }
+    }
+    for (std::size_t i = 0; i < a.positions.size(); ++i) {
+        if (!finite3(a.positions[i])) {
+            throw Error(file, where(kPositions, i), "position is not finite");
+        }
+    }
+    for (std::size_t i = 0; i < a.triangles.size(); ++i) {
+        for (const std::uint32_t v : a.triangles[i]) {
+            if (v >= a.positions.size()) {
+                throw Error(file, where(kTriangles, i),
+                            fmt::format("vertex {} does not exist (section '{}' has {})", v,
+                                        tag_name(kPositions), a.positions.size()));
+            }
+        }
+    }
+    if (material_count) {
+        for (std::size_t i = 0; i < a.materials.size(); ++i) {
+            if (a.materials[i] >= *material_count) {
+                throw Error(file, where(kMaterials, i),
+                            fmt::format("material {} does not exist (the scene has {})",
+                                        a.materials[i], *material_count));
+            }
+        }
+    }
+}
+
+template <class T>
+void add_if_present(SectionFileWriter& writer, std::uint32_t tag, const std::vector<T>& values) {
+    if (!values.empty()) {
+        writer.add_array<T>(tag, values);
+    }
+}
+
+/// A section that is absent when no point or vertex needs it: empty then.
+template <class T>
+std::span<const T> optional_array(const SectionFile& file, std::uint32_t tag) {
+    return file.has(tag) ? file.array<T>(tag) : std::span<const T>();
+}
+
+}  // namespace
+
+void write_hierarchy_file(const std::filesystem::path& path, const HierarchyData& data) {
+    if (!valid_grid(data.grid)) {
+        throw Error(path, where(kHead),
+                    fmt::format("grid resolution {}, expected 1 to {}", data.grid,
+                                kMaxVoxelGridResolution));
+    }
+    constexpr std::size_t kMaxCount = std::numeric_limits<std::uint32_t>::max();
+    if (data.nodes.size() > kMaxCount || data.core.size() > kMaxCount) {
+        throw Error(path, where(kHead),
+                    fmt::format("{} nodes and {} points, at most 2^32 - 1 of each fit",
+                                data.nodes.size(), data.core.size()));
+    }
+    HierarchyArrays a;
+    a.grid = data.grid;
+    a.nodes = data.nodes;
+    a.core = data.core;
+    a.diffuse = data.diffuse;
+    a.specular = data.specular;
+    a.mirror = data.mirror;
+    a.refraction = data.refraction;
+    a.node_triangles = data.node_triangles;
+    a.positions = data.vertex_positions;
+    a.normals = data.vertex_normals;
+    a.uvs = data.vertex_uvs;
+    a.triangles = data.triangles;
+    a.materials = data.triangle_materials;
+    check_lengths(path, a);
+    check_references(path, a, std::nullopt);
+
+    HierarchyHeader head{};
+    head.grid = static_cast<std::uint32_t>(data.grid);
+    head.node_count = static_cast<std::uint32_t>(data.nodes.size());
+    head.point_count = static_cast<std::uint32_t>(data.core.size());
+
+    SectionFileWriter writer(kHierarchyFileVersion);
+    writer.add_array<HierarchyHeader>(kHead, std::span(&head, 1));
+    writer.add_array<HierarchyNode>(kNode, data.nodes);
+    writer.add_array<PointCore>(kCore, data.core);
+    writer.add_array<PointDiffuse>(kDiffuse, data.diffuse);
+    add_if_present(writer, kSpecular, data.specular);
+    add_if_present(writer, kMirror, data.mirror);
+    add_if_present(writer, kRefraction, data.refraction);
+    writer.add_array<std::uint32_t>(kNodeTriangles, data.node_triangles);
+    writer.add_array<std::array<float, 3>>(kPositions, data.vertex_positions);
+    writer.add_array<NormalCode>(kNormals, data.vertex_normals);
+    add_if_present(writer, kUvs, data.vertex_uvs);
+    writer.add_array<std::array<std::uint32_t, 3>>(kTriangles, data.triangles);
+    writer.add_array<std::uint32_t>(kMaterials, data.triangle_materials);
+    writer.add(kBuild, std::as_bytes(std::span(data.build_json)));
+    writer.write(path);
+}
+
+HierarchyFile::HierarchyFile(SectionFile file) : m_file(std::move(file)) {}
+
+HierarchyFile HierarchyFile::open(const std::filesystem::path& path,
+                                  std::optional<std::uint32_t> material_count) {
+    HierarchyFile h(SectionFile::open(path, kHierarchyFileVersion));
+    const SectionFile& f = h.m_file;
+
+    const std::span<const HierarchyHeader> heads = f.array<HierarchyHeader>(kHead);
+    if (heads.size() != 1) {
+        throw Error(path, where(kHead), fmt::format("{} records, expected 1", heads.size()));
+    }
+    const HierarchyHeader& head = heads[0];
+    if (!valid_grid(head.grid)) {
+        throw Error(path, where(kHead),
+                    fmt::format("grid resolution {}, expected 1 to {}", head.grid,
+                                kMaxVoxelGridResolution));
+    }
+    for (const std::uint32_t r : head.reserved) {
+        if (r != 0) {
+            throw Error(path, where(kHead), "reserved fields are not zero");
+        }
+    }
+
+    h.m_grid = static_cast<int>(head.grid);
+    h.m_nodes = f.array<HierarchyNode>(kNode);
+    h.m_core = f.array<PointCore>(kCore);
+    h.m_diffuse = f.array<PointDiffuse>(kDiffuse);
+    h.m_specular = optional_array<PointSpecular>(f, kSpecular);
+    h.m_mirror = optional_array<PointMirror>(f, kMirror);
+    h.m_refraction = optional_array<PointRefraction>(f, kRefraction);
+    h.m_node_triangles = f.array<std::uint32_t>(kNodeTriangles);
+    h.m_positions = f.array<std::array<float, 3>>(kPositions);
+    h.m_normals = f.array<NormalCode>(kNormals);
+    h.m_uvs = optional_array<std::array<float, 2>>(f, kUvs);
+    h.m_triangles = f.array<std::array<std::uint32_t, 3>>(kTriangles);
+    h.m_materials = f.array<std::uint32_t>(kMaterials);
+    const std::span<const std::byte> build = f.bytes(kBuild);
+    h.m_build_json.assign(reinterpret_cast<const char*>(build.data()), build.size());
+
+    if (head.node_count != h.m_nodes.size()) {
+        throw Error(path, where(kHead),
+                    fmt::format("{} nodes, but section '{}' has {}", head.node_count,
+                                tag_name(kNode), h.m_nodes.size()));
+    }
+    if (head.point_count != h.m_core.size()) {
+        throw Error(path, where(kHead),
+                    fmt::format("{} points, but section '{}' has {}", head.point_count,
+                                tag_name(kCore), h.m_core.size()));
+    }
+
+    HierarchyArrays a;
+    a.grid = h.m_grid;
+    a.nodes = h.m_nodes;
+    a.core = h.m_core;
+    a.diffuse = h.m_diffuse;
+    a.specular = h.m_specular;
+    a.mirror = h.m_mirror;
+    a.refraction = h.m_refraction;
+    a.node_triangles = h.m_node_triangles;
+    a.positions = h.m_positions;
+    a.normals = h.m_normals;
+    a.uvs = h.m_uvs;
+    a.triangles = h.m_triangles;
+    a.materials = h.m_materials;
+    check_lengths(path, a);
+    check_references(path, a, material_count);
+    return h;
+}
+
+}  // namespace mrt
