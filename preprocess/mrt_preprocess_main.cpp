@@ -4,6 +4,7 @@
 #include "common/error.h"
 #include "common/hierarchy_file.h"
 #include "common/memory_usage.h"
+#include "common/progress.h"
 #include "common/scene_loader.h"
 #include "common/stopwatch.h"
 #include "common/texture.h"
@@ -54,8 +55,10 @@ int run(const Arguments& args) {
     const double load_seconds = seconds_since(load_start);
 
     const auto build_start = Clock::now();
+    mrt::Progress progress("octree", world.triangle_count(), args.quiet);
     const mrt::PointOctree octree =
-        mrt::build_point_octree(world, scene.materials, textures.get(), args.octree);
+        mrt::build_point_octree(world, scene.materials, textures.get(), args.octree, &progress);
+    progress.finish();
     const double build_seconds = seconds_since(build_start);
 
     const nlohmann::json build = {

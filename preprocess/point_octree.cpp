@@ -1,6 +1,7 @@
 #include "preprocess/point_octree.h"
 
 #include "common/error.h"
+#include "common/progress.h"
 #include "common/texture.h"
 #include "preprocess/normal_gradient.h"
 #include "preprocess/triangle_sampling.h"
@@ -64,8 +65,12 @@ float triangle_area(const Mesh& mesh, std::uint32_t t) {
 class Builder {
   public:
     Builder(const Mesh& mesh, const std::vector<Material>& materials,
-            const TextureSampler* textures, const PointOctreeOptions& options)
-        : m_mesh(mesh), m_materials(materials), m_textures(textures), m_options(options) {}
+            const TextureSampler* textures, const PointOctreeOptions& options, Progress* progress)
+        : m_mesh(mesh),
+          m_materials(materials),
+          m_textures(textures),
+          m_options(options),
+          m_progress(progress) {}
 
     std::unique_ptr<BuildNode> build(std::vector<std::uint32_t> tris, int level) const {
         auto result = std::make_unique<BuildNode>();
@@ -132,6 +137,9 @@ class Builder {
         }
 
         make_points(node, passed, passed_counts, level);
+        if (m_progress != nullptr) {
+            m_progress->advance(node.triangles.size());
+        }
 
         tbb::parallel_for(0, 8, [&](int c) {
             auto& octant = octants[static_cast<std::size_t>(c)];
@@ -352,12 +360,14 @@ class Builder {
     const std::vector<Material>& m_materials;
     const TextureSampler* m_textures;
     PointOctreeOptions m_options;
+    Progress* m_progress;
 };
 
 }  // namespace
 
 PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& materials,
-                               const TextureSampler* textures, const PointOctreeOptions& options) {
+                               const TextureSampler* textures, const PointOctreeOptions& options,
+                               Progress* progress) {
     if (options.grid < 1 || options.grid > 256) {
         throw Error("point octree: grid must be in [1, 256] (8-bit voxel indices), found " +
                     std::to_string(options.grid));
@@ -372,7 +382,7 @@ PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& ma
     }
     std::vector<std::uint32_t> all(mesh.triangles.size());
     std::iota(all.begin(), all.end(), 0u);
-    const Builder builder(mesh, materials, textures, options);
+    const Builder builder(mesh, materials, textures, options, progress);
     std::unique_ptr<BuildNode> root = builder.build(std::move(all), 0);
 
     // Breadth-first, children in octant order: a layout fixed by the tree, not the schedule.

@@ -23,6 +23,7 @@
 
 namespace mrt {
 
+class Progress;
 class TextureSampler;
 
 struct PointOctreeOptions {
@@ -79,8 +80,10 @@ struct PointOctree {
 
 /// Builds the hierarchy over `mesh` (world space; its per-triangle materials index
 /// `materials`). `textures` may be null when no material has a texture. Deterministic for the
-/// options' seed whatever the number of threads.
+/// options' seed whatever the number of threads. `progress`, if given, advances by one per
+/// triangle as it comes to rest in a node (its total should be the triangle count).
 PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& materials,
-                               const TextureSampler* textures, const PointOctreeOptions& options);
+                               const TextureSampler* textures, const PointOctreeOptions& options,
+                               Progress* progress = nullptr);
 
 }  // namespace mrt
