@@ -1,5 +1,7 @@
 #include "common/procedural.h"
 
+#include "common/random.h"
+
 #include "common/error.h"
 
 #include <fmt/format.h>
@@ -177,6 +179,125 @@ Mesh make_checkerboard(float size_x, float size_z, int tiles_x, int tiles_z,
             mesh.materials.push_back(material);
         }
     }
+    return mesh;
+}
+
+namespace {
+
+/// Appends a tapering tube from `base` along `axis` (length = |axis|), radii r0 → r1.
+void add_tube(Mesh& mesh, const Vec3f& base, const Vec3f& axis, float r0, float r1, int sides,
+              std::uint32_t material) {
+    const Vec3f up = axis.normalized();
+    const Vec3f side_a =
+        (std::abs(up.x()) < 0.9f ? Vec3f::UnitX() : Vec3f::UnitZ()).cross(up).normalized();
+    const Vec3f side_b = up.cross(side_a);
+    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
+    for (int end = 0; end < 2; ++end) {
+        for (int i = 0; i <= sides; ++i) {
+            const float phi =
+                2.0f * kPi * static_cast<float>(i % sides) / static_cast<float>(sides);
+            const Vec3f radial = std::cos(phi) * side_a + std::sin(phi) * side_b;
+            mesh.positions.push_back(base + static_cast<float>(end) * axis +
+                                     (end == 0 ? r0 : r1) * radial);
+            mesh.normals.push_back(radial);
+            mesh.uvs.emplace_back(static_cast<float>(i) / static_cast<float>(sides),
+                                  static_cast<float>(end));
+        }
+    }
+    const auto row = static_cast<std::uint32_t>(sides + 1);
+    for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(sides); ++i) {
+        const std::uint32_t a = first + i, b = a + 1, c = a + row, d = c + 1;
+        mesh.triangles.push_back({a, b, d});
+        mesh.triangles.push_back({a, d, c});
+        mesh.materials.push_back(material);
+        mesh.materials.push_back(material);
+    }
+}
+
+/// Appends a leaf blade from `base` along `along`, `width` wide across `across`, bent along
+/// `bend`: 5 rows of 2 vertices (tip shared), normals interpolated across the curve.
+void add_leaf(Mesh& mesh, const Vec3f& base, const Vec3f& along, const Vec3f& across,
+              const Vec3f& bend, float width, std::uint32_t material) {
+    constexpr int kRows = 5;
+    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
+    for (int r = 0; r < kRows; ++r) {
+        const float t = static_cast<float>(r) / static_cast<float>(kRows - 1);
+        const float half = 0.5f * width * std::sin(kPi * std::min(t, 0.999f)) + 1e-3f;
+        const Vec3f centre = base + t * along + t * t * bend;
+        const Vec3f tangent = (along + 2.0f * t * bend).normalized();
+        const Vec3f normal = tangent.cross(across).normalized();
+        for (int side = -1; side <= 1; side += 2) {
+            mesh.positions.push_back(centre + static_cast<float>(side) * half * across);
+            mesh.normals.push_back(normal);
+            mesh.uvs.emplace_back(0.5f + 0.5f * static_cast<float>(side), t);
+        }
+    }
+    for (std::uint32_t r = 0; r + 1 < kRows; ++r) {
+        const std::uint32_t a = first + 2 * r, b = a + 1, c = a + 2, d = a + 3;
+        mesh.triangles.push_back({a, b, d});
+        mesh.triangles.push_back({a, d, c});
+        mesh.materials.push_back(material);
+        mesh.materials.push_back(material);
+    }
+}
+
+void grow_branch(Mesh& mesh, std::uint64_t key, const Vec3f& base, const Vec3f& direction,
+                 float length, float radius, int depth, int leaves, std::uint32_t stem,
+                 std::uint32_t leaf) {
+    SampleRng rng(key, 0, 0, 0);
+    constexpr int kSegments = 4;
+    Vec3f position = base;
+    Vec3f heading = direction.normalized();
+    for (int s = 0; s < kSegments; ++s) {
+        const Vec3f wobble(rng.uniform() - 0.5f, 0.3f * (rng.uniform() - 0.5f),
+                           rng.uniform() - 0.5f);
+        const Vec3f next_heading = (heading + 0.25f * wobble).normalized();
+        const Vec3f axis = (length / kSegments) * next_heading;
+        const float r0 = radius * (1.0f - 0.6f * static_cast<float>(s) / kSegments);
+        const float r1 = radius * (1.0f - 0.6f * static_cast<float>(s + 1) / kSegments);
+        add_tube(mesh, position, axis, r0, r1, 6, stem);
+        position += axis;
+        heading = next_heading;
+    }
+    const Vec3f side = (std::abs(heading.y()) < 0.9f ? Vec3f::UnitY() : Vec3f::UnitX())
+                           .cross(heading)
+                           .normalized();
+    for (int l = 0; l < leaves; ++l) {
+        const float t = (static_cast<float>(l) + 0.5f) / static_cast<float>(leaves);
+        const float angle = 2.39996f * static_cast<float>(l) + rng.uniform();  // golden angle
+        const Vec3f out = (std::cos(angle) * side + std::sin(angle) * heading.cross(side));
+        const Vec3f leaf_base = base + t * (position - base);
+        const Vec3f along = 0.18f * length * (out + 0.4f * heading).normalized();
+        const Vec3f across = along.cross(heading).normalized();
+        add_leaf(mesh, leaf_base, along, across, -0.05f * length * Vec3f::UnitY(), 0.06f * length,
+                 leaf);
+    }
+    if (depth > 0) {
+        for (int b = 0; b < 3; ++b) {
+            const float angle = 2.0944f * static_cast<float>(b) + rng.uniform();
+            const Vec3f out = std::cos(angle) * side + std::sin(angle) * heading.cross(side);
+            grow_branch(mesh, mix64(key + static_cast<std::uint64_t>(b) + 1), position,
+                        heading + 0.9f * out, 0.7f * length, 0.6f * radius, depth - 1, leaves, stem,
+                        leaf);
+        }
+    }
+}
+
+}  // namespace
+
+Mesh make_plant(std::uint64_t seed, int depth, int leaves_per_branch, std::uint32_t stem,
+                std::uint32_t leaf) {
+    if (depth < 0 || depth > 8) {
+        throw Error(fmt::format("plant: depth must be in [0, 8] (got {})", depth));
+    }
+    if (leaves_per_branch < 0 || leaves_per_branch > 1000) {
+        throw Error(fmt::format("plant: leaves per branch must be in [0, 1000] (got {})",
+                                leaves_per_branch));
+    }
+    Mesh mesh;
+    mesh.name = fmt::format("plant(seed={}, depth={}, leaves={})", seed, depth, leaves_per_branch);
+    grow_branch(mesh, mix64(seed), Vec3f::Zero(), Vec3f::UnitY(), 0.45f, 0.02f, depth,
+                leaves_per_branch, stem, leaf);
     return mesh;
 }
 

@@ -185,6 +185,14 @@ TEST(PointOctree, PointsCoverTheBunnyAtEveryLevel) {
     EXPECT_GE(deepest, 3);
 }
 
+TEST(PointOctree, PointsCoverAProceduralPlantAtEveryLevel) {
+    // Thin stems and small curved leaves in every orientation: slivers and tiny triangles.
+    const Mesh plant = make_plant(3, 3, 8, 0, 1);
+    const PointOctree octree = build_point_octree(plant, two_materials(), nullptr, {});
+    expect_every_triangle_once(plant, octree);
+    EXPECT_GT(expect_coverage(plant, octree), 20000u);
+}
+
 TEST(PointOctree, UniformMaterialIsExactAtEveryLevelAndFlatSurfacesAreCovered) {
     const Mesh quad = make_checkerboard(4.0f, 4.0f, 64, 64, 1, 1);
     const PointOctree octree = build_point_octree(quad, two_materials(), nullptr, {});

@@ -379,5 +379,25 @@ TEST(Checkerboard, RejectsBadArguments) {
               std::string::npos);
 }
 
+TEST(Plant, IsDeterministicFiniteAndBranched) {
+    const Mesh a = make_plant(7, 2, 6, 0, 1);
+    const Mesh b = make_plant(7, 2, 6, 0, 1);
+    const Mesh c = make_plant(8, 2, 6, 0, 1);
+    ASSERT_EQ(a.positions, b.positions);
+    EXPECT_NE(a.positions, c.positions);
+    // 1 + 3 + 9 branches of 4 rings × 6 sides × 2 triangles, each with 6 leaves of 8 triangles.
+    EXPECT_EQ(a.triangle_count(), 13u * (4 * 6 * 2 + 6 * 8));
+    ASSERT_EQ(a.materials.size(), a.triangle_count());
+    EXPECT_EQ(std::count(a.materials.begin(), a.materials.end(), 1u), 13 * 6 * 8);
+    for (std::size_t v = 0; v < a.positions.size(); ++v) {
+        EXPECT_TRUE(a.positions[v].allFinite());
+        EXPECT_NEAR(a.normals[v].norm(), 1.0f, 1e-5f);
+    }
+    const auto box = a.bounds();
+    EXPECT_GT(box.sizes().y(), 0.3f);
+    EXPECT_LT(box.sizes().maxCoeff(), 3.0f);
+    EXPECT_NE(thrown_message([] { make_plant(0, 9, 1, 0, 0); }).find("depth"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace mrt
