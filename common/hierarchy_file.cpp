@@ -39,22 +39,6 @@ std::string where(std::uint32_t tag, std::size_t record) {
 
 /// The arrays of a hierarchy, from memory (before writing) or from the mapping (after reading),
 /// so the writer and the reader check the same references with the same messages.
-struct HierarchyArrays {
-    int grid = 0;
-    std::span<const HierarchyNode> nodes;
-    std::span<const PointCore> core;
-    std::span<const PointDiffuse> diffuse;
-    std::span<const PointSpecular> specular;
-    std::span<const PointMirror> mirror;
-    std::span<const PointRefraction> refraction;
-    std::span<const std::uint32_t> node_triangles;
-    std::span<const std::array<float, 3>> positions;
-    std::span<const NormalCode> normals;
-    std::span<const std::array<float, 2>> uvs;
-    std::span<const std::array<std::uint32_t, 3>> triangles;
-    std::span<const std::uint32_t> materials;
-};
-
 bool valid_grid(std::int64_t grid) {
     return grid >= 1 && grid <= kMaxVoxelGridResolution;
 }
@@ -70,15 +54,17 @@ void check_length(const std::filesystem::path& file, std::uint32_t tag, std::siz
                             optional ? " or none" : ""));
 }
 
-void check_lengths(const std::filesystem::path& file, const HierarchyArrays& a) {
+void check_lengths(const std::filesystem::path& file, const HierarchyView& a) {
     const std::size_t points = a.core.size();
     check_length(file, kDiffuse, a.diffuse.size(), points, "point", false);
     check_length(file, kSpecular, a.specular.size(), points, "point", true);
     check_length(file, kMirror, a.mirror.size(), points, "point", true);
     check_length(file, kRefraction, a.refraction.size(), points, "point", true);
-    check_length(file, kNormals, a.normals.size(), a.positions.size(), "vertex", false);
-    check_length(file, kUvs, a.uvs.size(), a.positions.size(), "vertex", true);
-    check_length(file, kMaterials, a.materials.size(), a.triangles.size(), "triangle", false);
+    check_length(file, kNormals, a.vertex_normals.size(), a.vertex_positions.size(), "vertex",
+                 false);
+    check_length(file, kUvs, a.vertex_uvs.size(), a.vertex_positions.size(), "vertex", true);
+    check_length(file, kMaterials, a.triangle_materials.size(), a.triangles.size(), "triangle",
+                 false);
 }
 
 bool finite3(const std::array<float, 3>& v) {
@@ -86,7 +72,7 @@ bool finite3(const std::array<float, 3>& v) {
 }
 
 /// One node's own fields and the ranges it refers to.
-void check_node(const std::filesystem::path& file, const HierarchyArrays& a, std::size_t i) {
+void check_node(const std::filesystem::path& file, const HierarchyView& a, std::size_t i) {
     const HierarchyNode& n = a.nodes[i];
     const std::string at = where(kNode, i);
     if (!finite3(n.origin) || !std::isfinite(n.side) || !(n.side > 0.0f)) {
@@ -151,7 +137,7 @@ void check_node(const std::filesystem::path& file, const HierarchyArrays& a, std
 }
 
 /// Every cross-reference of the arrays (lengths were checked before).
-void check_references(const std::filesystem::path& file, const HierarchyArrays& a,
+void check_references(const std::filesystem::path& file, const HierarchyView& a,
                       std::optional<std::uint32_t> material_count) {
     for (std::size_t i = 0; i < a.nodes.size(); ++i) {
         check_node(file, a, i);
@@ -187,26 +173,26 @@ void check_references(const std::filesystem::path& file, const HierarchyArrays& 
                                     a.node_triangles[i], tag_name(kTriangles), a.triangles.size()));
         }
     }
-    for (std::size_t i = 0; i < a.positions.size(); ++i) {
-        if (!finite3(a.positions[i])) {
+    for (std::size_t i = 0; i < a.vertex_positions.size(); ++i) {
+        if (!finite3(a.vertex_positions[i])) {
             throw Error(file, where(kPositions, i), "position is not finite");
         }
     }
     for (std::size_t i = 0; i < a.triangles.size(); ++i) {
         for (const std::uint32_t v : a.triangles[i]) {
-            if (v >= a.positions.size()) {
+            if (v >= a.vertex_positions.size()) {
                 throw Error(file, where(kTriangles, i),
                             fmt::format("vertex {} does not exist (section '{}' has {})", v,
-                                        tag_name(kPositions), a.positions.size()));
+                                        tag_name(kPositions), a.vertex_positions.size()));
             }
         }
     }
     if (material_count) {
-        for (std::size_t i = 0; i < a.materials.size(); ++i) {
-            if (a.materials[i] >= *material_count) {
+        for (std::size_t i = 0; i < a.triangle_materials.size(); ++i) {
+            if (a.triangle_materials[i] >= *material_count) {
                 throw Error(file, where(kMaterials, i),
                             fmt::format("material {} does not exist (the scene has {})",
-                                        a.materials[i], *material_count));
+                                        a.triangle_materials[i], *material_count));
             }
         }
     }
@@ -239,20 +225,7 @@ void write_hierarchy_file(const std::filesystem::path& path, const HierarchyData
                     fmt::format("{} nodes and {} points, at most 2^32 - 1 of each fit",
                                 data.nodes.size(), data.core.size()));
     }
-    HierarchyArrays a;
-    a.grid = data.grid;
-    a.nodes = data.nodes;
-    a.core = data.core;
-    a.diffuse = data.diffuse;
-    a.specular = data.specular;
-    a.mirror = data.mirror;
-    a.refraction = data.refraction;
-    a.node_triangles = data.node_triangles;
-    a.positions = data.vertex_positions;
-    a.normals = data.vertex_normals;
-    a.uvs = data.vertex_uvs;
-    a.triangles = data.triangles;
-    a.materials = data.triangle_materials;
+    const HierarchyView a = data.view();
     check_lengths(path, a);
     check_references(path, a, std::nullopt);
 
@@ -302,47 +275,34 @@ HierarchyFile HierarchyFile::open(const std::filesystem::path& path,
         }
     }
 
-    h.m_grid = static_cast<int>(head.grid);
-    h.m_nodes = f.array<HierarchyNode>(kNode);
-    h.m_core = f.array<PointCore>(kCore);
-    h.m_diffuse = f.array<PointDiffuse>(kDiffuse);
-    h.m_specular = optional_array<PointSpecular>(f, kSpecular);
-    h.m_mirror = optional_array<PointMirror>(f, kMirror);
-    h.m_refraction = optional_array<PointRefraction>(f, kRefraction);
-    h.m_node_triangles = f.array<std::uint32_t>(kNodeTriangles);
-    h.m_positions = f.array<std::array<float, 3>>(kPositions);
-    h.m_normals = f.array<NormalCode>(kNormals);
-    h.m_uvs = optional_array<std::array<float, 2>>(f, kUvs);
-    h.m_triangles = f.array<std::array<std::uint32_t, 3>>(kTriangles);
-    h.m_materials = f.array<std::uint32_t>(kMaterials);
+    HierarchyView& a = h.m_view;
+    a.grid = static_cast<int>(head.grid);
+    a.nodes = f.array<HierarchyNode>(kNode);
+    a.core = f.array<PointCore>(kCore);
+    a.diffuse = f.array<PointDiffuse>(kDiffuse);
+    a.specular = optional_array<PointSpecular>(f, kSpecular);
+    a.mirror = optional_array<PointMirror>(f, kMirror);
+    a.refraction = optional_array<PointRefraction>(f, kRefraction);
+    a.node_triangles = f.array<std::uint32_t>(kNodeTriangles);
+    a.vertex_positions = f.array<std::array<float, 3>>(kPositions);
+    a.vertex_normals = f.array<NormalCode>(kNormals);
+    a.vertex_uvs = optional_array<std::array<float, 2>>(f, kUvs);
+    a.triangles = f.array<std::array<std::uint32_t, 3>>(kTriangles);
+    a.triangle_materials = f.array<std::uint32_t>(kMaterials);
     const std::span<const std::byte> build = f.bytes(kBuild);
     h.m_build_json.assign(reinterpret_cast<const char*>(build.data()), build.size());
 
-    if (head.node_count != h.m_nodes.size()) {
+    if (head.node_count != a.nodes.size()) {
         throw Error(path, where(kHead),
                     fmt::format("{} nodes, but section '{}' has {}", head.node_count,
-                                tag_name(kNode), h.m_nodes.size()));
+                                tag_name(kNode), a.nodes.size()));
     }
-    if (head.point_count != h.m_core.size()) {
+    if (head.point_count != a.core.size()) {
         throw Error(path, where(kHead),
                     fmt::format("{} points, but section '{}' has {}", head.point_count,
-                                tag_name(kCore), h.m_core.size()));
+                                tag_name(kCore), a.core.size()));
     }
 
-    HierarchyArrays a;
-    a.grid = h.m_grid;
-    a.nodes = h.m_nodes;
-    a.core = h.m_core;
-    a.diffuse = h.m_diffuse;
-    a.specular = h.m_specular;
-    a.mirror = h.m_mirror;
-    a.refraction = h.m_refraction;
-    a.node_triangles = h.m_node_triangles;
-    a.positions = h.m_positions;
-    a.normals = h.m_normals;
-    a.uvs = h.m_uvs;
-    a.triangles = h.m_triangles;
-    a.materials = h.m_materials;
     check_lengths(path, a);
     check_references(path, a, material_count);
     return h;

@@ -97,6 +97,24 @@ struct PointRefraction {
 };
 static_assert(sizeof(PointRefraction) == 2);
 
+/// The records of a hierarchy, wherever they live (in memory before writing, or in the
+/// mapped file): what the consistency checks and the tracer read.
+struct HierarchyView {
+    int grid = 0;
+    std::span<const HierarchyNode> nodes;
+    std::span<const PointCore> core;
+    std::span<const PointDiffuse> diffuse;
+    std::span<const PointSpecular> specular;      ///< May be empty.
+    std::span<const PointMirror> mirror;          ///< May be empty.
+    std::span<const PointRefraction> refraction;  ///< May be empty.
+    std::span<const std::uint32_t> node_triangles;
+    std::span<const std::array<float, 3>> vertex_positions;
+    std::span<const NormalCode> vertex_normals;
+    std::span<const std::array<float, 2>> vertex_uvs;  ///< May be empty.
+    std::span<const std::array<std::uint32_t, 3>> triangles;
+    std::span<const std::uint32_t> triangle_materials;
+};
+
 /// Everything a hierarchy file holds, in memory, before writing. Optional channels are empty
 /// when the scene does not need them; present ones have one record per point.
 struct HierarchyData {
@@ -114,6 +132,22 @@ struct HierarchyData {
     std::vector<std::array<std::uint32_t, 3>> triangles;
     std::vector<std::uint32_t> triangle_materials;
     std::string build_json = "{}";  ///< Build parameters and times.
+
+    HierarchyView view() const {
+        return {grid,
+                nodes,
+                core,
+                diffuse,
+                specular,
+                mirror,
+                refraction,
+                node_triangles,
+                vertex_positions,
+                vertex_normals,
+                vertex_uvs,
+                triangles,
+                triangle_materials};
+    }
 };
 
 /// Writes `data` to `path` atomically; throws mrt::Error naming the file and what is
@@ -128,19 +162,22 @@ class HierarchyFile {
     static HierarchyFile open(const std::filesystem::path& path,
                               std::optional<std::uint32_t> material_count = std::nullopt);
 
-    int grid() const { return m_grid; }
-    std::span<const HierarchyNode> nodes() const { return m_nodes; }
-    std::span<const PointCore> core() const { return m_core; }
-    std::span<const PointDiffuse> diffuse() const { return m_diffuse; }
-    std::span<const PointSpecular> specular() const { return m_specular; }        ///< May be empty.
-    std::span<const PointMirror> mirror() const { return m_mirror; }              ///< May be empty.
-    std::span<const PointRefraction> refraction() const { return m_refraction; }  ///< May be empty.
-    std::span<const std::uint32_t> node_triangles() const { return m_node_triangles; }
-    std::span<const std::array<float, 3>> vertex_positions() const { return m_positions; }
-    std::span<const NormalCode> vertex_normals() const { return m_normals; }
-    std::span<const std::array<float, 2>> vertex_uvs() const { return m_uvs; }  ///< May be empty.
-    std::span<const std::array<std::uint32_t, 3>> triangles() const { return m_triangles; }
-    std::span<const std::uint32_t> triangle_materials() const { return m_materials; }
+    const HierarchyView& view() const { return m_view; }
+    int grid() const { return m_view.grid; }
+    std::span<const HierarchyNode> nodes() const { return m_view.nodes; }
+    std::span<const PointCore> core() const { return m_view.core; }
+    std::span<const PointDiffuse> diffuse() const { return m_view.diffuse; }
+    std::span<const PointSpecular> specular() const { return m_view.specular; }
+    std::span<const PointMirror> mirror() const { return m_view.mirror; }
+    std::span<const PointRefraction> refraction() const { return m_view.refraction; }
+    std::span<const std::uint32_t> node_triangles() const { return m_view.node_triangles; }
+    std::span<const std::array<float, 3>> vertex_positions() const {
+        return m_view.vertex_positions;
+    }
+    std::span<const NormalCode> vertex_normals() const { return m_view.vertex_normals; }
+    std::span<const std::array<float, 2>> vertex_uvs() const { return m_view.vertex_uvs; }
+    std::span<const std::array<std::uint32_t, 3>> triangles() const { return m_view.triangles; }
+    std::span<const std::uint32_t> triangle_materials() const { return m_view.triangle_materials; }
     const std::string& build_json() const { return m_build_json; }
     const SectionFile& sections() const { return m_file; }
 
@@ -148,19 +185,7 @@ class HierarchyFile {
     explicit HierarchyFile(SectionFile file);
 
     SectionFile m_file;
-    int m_grid = 0;
-    std::span<const HierarchyNode> m_nodes;
-    std::span<const PointCore> m_core;
-    std::span<const PointDiffuse> m_diffuse;
-    std::span<const PointSpecular> m_specular;
-    std::span<const PointMirror> m_mirror;
-    std::span<const PointRefraction> m_refraction;
-    std::span<const std::uint32_t> m_node_triangles;
-    std::span<const std::array<float, 3>> m_positions;
-    std::span<const NormalCode> m_normals;
-    std::span<const std::array<float, 2>> m_uvs;
-    std::span<const std::array<std::uint32_t, 3>> m_triangles;
-    std::span<const std::uint32_t> m_materials;
+    HierarchyView m_view;  ///< Spans into m_file's mapping.
     std::string m_build_json;
 };
 
