@@ -82,6 +82,7 @@ class Builder {
 
         // Which triangles are large at this resolution (kept here) and which go down.
         std::vector<std::uint32_t> sample_counts(tris.size(), 0);
+        std::vector<std::vector<std::uint32_t>> voxels(tris.size());
         std::vector<char> keep(tris.size(), 0);
         tbb::parallel_for(std::size_t{0}, tris.size(), [&](std::size_t i) {
             const std::uint32_t t = tris[i];
@@ -97,18 +98,23 @@ class Builder {
             const auto count = static_cast<std::uint32_t>(
                 std::clamp(std::ceil(density), 1.0f, static_cast<float>(1u << 30)));
             sample_counts[i] = count;
-            keep[i] = level >= m_options.max_depth ||
-                      representative_count(node, t, level, count) >
-                          static_cast<std::size_t>(m_options.max_representatives);
+            if (level >= m_options.max_depth) {
+                keep[i] = 1;
+                return;
+            }
+            voxels[i] = representative_voxels(node, t, level, count);
+            keep[i] = voxels[i].size() > static_cast<std::size_t>(m_options.max_representatives);
         });
         std::vector<std::uint32_t> passed;
         std::vector<std::uint32_t> passed_counts;
+        std::vector<std::uint32_t> chosen;  // voxels of the passed triangles: the node's points
         for (std::size_t i = 0; i < tris.size(); ++i) {
             if (keep[i]) {
                 node.triangles.push_back(tris[i]);
             } else {
                 passed.push_back(tris[i]);
                 passed_counts.push_back(sample_counts[i]);
+                chosen.insert(chosen.end(), voxels[i].begin(), voxels[i].end());
             }
         }
 
@@ -132,11 +138,12 @@ class Builder {
                 std::sort(node.triangles.begin(), node.triangles.end());
                 passed.clear();
                 passed_counts.clear();
+                chosen.clear();
                 octant.clear();
             }
         }
 
-        make_points(node, passed, passed_counts, level);
+        make_points(node, passed, passed_counts, std::move(chosen), level);
         if (m_progress != nullptr) {
             m_progress->advance(node.triangles.size());
         }
@@ -188,10 +195,11 @@ class Builder {
                b.x() * m_mesh.positions[tri[1]] + b.y() * m_mesh.positions[tri[2]];
     }
 
-    /// Distinct voxels hit by the first `count` samples of triangle t, counting stops early
-    /// once it exceeds the limit (the triangle is kept then, whatever the exact number).
-    std::size_t representative_count(const OctreeNode& node, std::uint32_t t, int level,
-                                     std::uint32_t count) const {
+    /// Distinct voxels hit by the first `count` samples of triangle t: its representatives.
+    /// The search stops once there are more than the limit (the triangle is kept then,
+    /// whatever the exact number).
+    std::vector<std::uint32_t> representative_voxels(const OctreeNode& node, std::uint32_t t,
+                                                     int level, std::uint32_t count) const {
         const std::uint64_t key = triangle_sample_key(m_options.seed, t, level);
         const auto limit = static_cast<std::size_t>(m_options.max_representatives);
         std::vector<std::uint32_t> voxels;
@@ -204,11 +212,14 @@ class Builder {
                 }
             }
         }
-        return voxels.size();
+        return voxels;
     }
 
+    /// Points at the `chosen` voxels (the representatives of `tris`, with repeats), averaged
+    /// from dense samples of `tris`; counts[i] is the representative-choosing sample count.
     void make_points(OctreeNode& node, const std::vector<std::uint32_t>& tris,
-                     const std::vector<std::uint32_t>& counts, int level) const {
+                     const std::vector<std::uint32_t>& counts, std::vector<std::uint32_t> chosen,
+                     int level) const {
         if (tris.empty()) {
             return;
         }
@@ -224,7 +235,6 @@ class Builder {
                                                    static_cast<std::size_t>(std::min(dense, 1e9f)));
         }
         std::vector<Sample> samples(offsets.back());
-        std::vector<std::vector<std::uint32_t>> representative_voxels(tris.size());
         tbb::parallel_for(std::size_t{0}, tris.size(), [&](std::size_t i) {
             const std::uint32_t t = tris[i];
             const auto& tri = m_mesh.triangles[t];
@@ -250,19 +260,8 @@ class Builder {
                 }
                 s.voxel = voxel_index(node, s.position);
                 s.area = area;
-                // The first samples, at the representative density, choose the points.
-                if (j < counts[i]) {
-                    auto& voxels = representative_voxels[i];
-                    if (std::find(voxels.begin(), voxels.end(), s.voxel) == voxels.end()) {
-                        voxels.push_back(s.voxel);
-                    }
-                }
             }
         });
-        std::vector<std::uint32_t> chosen;
-        for (const auto& voxels : representative_voxels) {
-            chosen.insert(chosen.end(), voxels.begin(), voxels.end());
-        }
         std::sort(chosen.begin(), chosen.end());
         chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
 
