@@ -8,6 +8,7 @@
 #include "common/scene_loader.h"
 #include "common/stopwatch.h"
 #include "common/texture.h"
+#include "common/tool_main.h"
 #include "preprocess/hierarchy_pack.h"
 #include "preprocess/point_octree.h"
 
@@ -123,28 +124,12 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(0, 1024))
         ->default_val(0);
     app.add_flag("-q,--quiet", args.quiet, "No summary");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        if (e.get_exit_code() == 0) {
-            return app.exit(e);
-        }
-        std::cerr << "mrt-preprocess: " << e.what() << " (see --help)\n";
-        return 2;
-    }
-    try {
+    return mrt::run_tool(app, argc, argv, [&] {
         std::optional<tbb::global_control> limit;
         if (args.threads > 0) {
             limit.emplace(tbb::global_control::max_allowed_parallelism,
                           static_cast<std::size_t>(args.threads));
         }
         return run(args);
-    } catch (const mrt::Error& e) {
-        std::cerr << "mrt-preprocess: " << e.what() << '\n';
-    } catch (const std::bad_alloc&) {
-        std::cerr << "mrt-preprocess: out of memory\n";
-    } catch (const std::exception& e) {
-        std::cerr << "mrt-preprocess: " << e.what() << '\n';
-    }
-    return 1;
+    });
 }

@@ -2,6 +2,7 @@
 // against a reference: image error (RMSE, PSNR, SSIM, error images) against run time.
 
 #include "common/error.h"
+#include "common/tool_main.h"
 #include "trace/comparison.h"
 #include "trace/comparison_report.h"
 
@@ -64,31 +65,14 @@ int main(int argc, char** argv) {
         ->default_val(0.1);
     app.add_flag("-q,--quiet", quiet, "No progress lines or messages on stderr");
 
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::CallForAllHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        std::cerr << "mrt-compare: " << e.what() << " (see --help)\n";
-        return 2;
-    }
-    options.filter = filter;
-    options.threads = threads;
-    options.quiet = quiet;
-    options.progress = ::isatty(STDERR_FILENO) == 1;
-    try {
+    return mrt::run_tool(app, argc, argv, [&] {
+        options.filter = filter;
+        options.threads = threads;
+        options.quiet = quiet;
+        options.progress = ::isatty(STDERR_FILENO) == 1;
         options.trace_exe = mrt::find_trace_executable();
         const mrt::Comparison comparison = mrt::run_comparison(options, std::cerr);
         mrt::print_results_table(std::cout, comparison);
         return 0;
-    } catch (const mrt::Error& e) {
-        std::cerr << "mrt-compare: " << e.what() << '\n';
-    } catch (const std::bad_alloc&) {
-        std::cerr << "mrt-compare: out of memory\n";
-    } catch (const std::exception& e) {
-        std::cerr << "mrt-compare: internal error: " << e.what() << '\n';
-    }
-    return 1;
+    });
 }

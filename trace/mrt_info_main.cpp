@@ -3,6 +3,7 @@
 
 #include "common/error.h"
 #include "common/hierarchy_file.h"
+#include "common/tool_main.h"
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
@@ -61,21 +62,5 @@ int main(int argc, char** argv) {
     CLI::App app{"mrt-info: describe a .mrh point-hierarchy file", "mrt-info"};
     std::filesystem::path path;
     app.add_option("file", path, "Hierarchy file (.mrh)")->required();
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        if (e.get_exit_code() == 0) {
-            return app.exit(e);
-        }
-        std::cerr << "mrt-info: " << e.what() << " (see --help)\n";
-        return 2;
-    }
-    try {
-        return run(path);
-    } catch (const mrt::Error& e) {
-        std::cerr << "mrt-info: " << e.what() << '\n';
-    } catch (const std::exception& e) {
-        std::cerr << "mrt-info: internal error: " << e.what() << '\n';
-    }
-    return 1;
+    return mrt::run_tool(app, argc, argv, [&] { return run(path); });
 }

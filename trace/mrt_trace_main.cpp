@@ -4,6 +4,7 @@
 #include "common/image.h"
 #include "common/scene_loader.h"
 #include "common/stopwatch.h"
+#include "common/tool_main.h"
 #include "trace/distributed.h"
 #include "trace/pixel_filter.h"
 #include "trace/render_stats.h"
@@ -259,25 +260,6 @@ int main(int argc, char** argv) {
     app.add_option("--stats", args.stats, "Write run statistics as JSON to this file");
     app.add_flag("-q,--quiet", args.quiet, "No progress bar or summary");
 
-    try {
-        app.parse(argc, argv);
-        check_method_options(app, args);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::CallForAllHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        std::cerr << "mrt-trace: " << e.what() << " (see --help)\n";
-        return 2;
-    }
-    try {
-        return run(args);
-    } catch (const mrt::Error& e) {
-        std::cerr << "mrt-trace: " << e.what() << '\n';
-    } catch (const std::bad_alloc&) {
-        std::cerr << "mrt-trace: out of memory\n";
-    } catch (const std::exception& e) {
-        std::cerr << "mrt-trace: internal error: " << e.what() << '\n';
-    }
-    return 1;
+    return mrt::run_tool(
+        app, argc, argv, [&] { check_method_options(app, args); }, [&] { return run(args); });
 }

@@ -1,0 +1,49 @@
+#pragma once
+// The one way every command-line tool parses its arguments and reports failure: one line
+// "TOOL: message" on stderr; exit 0 on success or --help, 2 for a bad command line, 1 for any
+// error the work throws. Header-only: included by the tools, which link CLI11.
+
+#include "common/error.h"
+
+#include <CLI/CLI.hpp>
+
+#include <exception>
+#include <iostream>
+#include <new>
+
+namespace mrt {
+
+/// Parses argv into `app`, runs `validate()` (which may throw CLI::ValidationError for
+/// combinations of options), then `work()`, whose return value is the exit code.
+template <typename Validate, typename Work>
+int run_tool(CLI::App& app, int argc, char** argv, Validate&& validate, Work&& work) {
+    const std::string tool = app.get_name();
+    try {
+        app.parse(argc, argv);
+        validate();
+    } catch (const CLI::ParseError& e) {
+        if (e.get_exit_code() == 0) {  // --help
+            return app.exit(e);
+        }
+        std::cerr << tool << ": " << e.what() << " (see --help)\n";
+        return 2;
+    }
+    try {
+        return work();
+    } catch (const Error& e) {
+        std::cerr << tool << ": " << e.what() << '\n';
+    } catch (const std::bad_alloc&) {
+        std::cerr << tool << ": out of memory\n";
+    } catch (const std::exception& e) {
+        std::cerr << tool << ": internal error: " << e.what() << '\n';
+    }
+    return 1;
+}
+
+template <typename Work>
+int run_tool(CLI::App& app, int argc, char** argv, Work&& work) {
+    return run_tool(
+        app, argc, argv, [] {}, std::forward<Work>(work));
+}
+
+}  // namespace mrt
