@@ -62,14 +62,14 @@ int run(const Arguments& args) {
     progress.finish();
     const double build_seconds = seconds_since(build_start);
 
+    // Parameters only: timings would make every build's file differ, and the file must be
+    // byte-identical for the same scene, options and seed whatever the thread count.
     const nlohmann::json build = {
         {"scene", args.scene.string()},
         {"grid", args.octree.grid},
         {"max_representatives", args.octree.max_representatives},
         {"oversampling", args.octree.oversampling},
         {"seed", args.octree.seed},
-        {"load_seconds", load_seconds},
-        {"build_seconds", build_seconds},
     };
     const auto write_start = Clock::now();
     const mrt::HierarchyData data =

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -108,6 +109,14 @@ TEST(MrtPreprocess, WritesAFileTheReaderAcceptsAndRefusesBadInput) {
     const std::string exe = MRT_PREPROCESS_EXE;
     const std::string scene = std::string(MRT_SOURCE_DIR) + "/data/scenes/two-spheres.json";
     ASSERT_EQ(std::system((exe + " " + scene + " -o " + out.string() + " -q").c_str()), 0);
+    // Byte-identical for any number of threads.
+    const fs::path one_thread = scratch.path() / "one-thread.mrh";
+    ASSERT_EQ(
+        std::system((exe + " " + scene + " -o " + one_thread.string() + " -q --threads 1").c_str()),
+        0);
+    std::ifstream a(out, std::ios::binary), b(one_thread, std::ios::binary);
+    EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(a), std::istreambuf_iterator<char>(),
+                           std::istreambuf_iterator<char>(b), std::istreambuf_iterator<char>()));
     const HierarchyFile read = HierarchyFile::open(out);
     EXPECT_GT(read.core().size(), 100u);
     EXPECT_GT(read.triangles().size(), 100u);
