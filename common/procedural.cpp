@@ -287,12 +287,12 @@ void grow_branch(Mesh& mesh, std::uint64_t key, const Vec3f& base, const Vec3f& 
 
 Mesh make_plant(std::uint64_t seed, int depth, int leaves_per_branch, std::uint32_t stem,
                 std::uint32_t leaf) {
-    if (depth < 0 || depth > 8) {
-        throw Error(fmt::format("plant: depth must be in [0, 8] (got {})", depth));
+    if (depth < 0 || depth > kMaxPlantDepth) {
+        throw Error(fmt::format("plant: depth must be in [0, {}] (got {})", kMaxPlantDepth, depth));
     }
-    if (leaves_per_branch < 0 || leaves_per_branch > 1000) {
-        throw Error(fmt::format("plant: leaves per branch must be in [0, 1000] (got {})",
-                                leaves_per_branch));
+    if (leaves_per_branch < 0 || leaves_per_branch > kMaxPlantLeavesPerBranch) {
+        throw Error(fmt::format("plant: leaves per branch must be in [0, {}] (got {})",
+                                kMaxPlantLeavesPerBranch, leaves_per_branch));
     }
     Mesh mesh;
     mesh.name = fmt::format("plant(seed={}, depth={}, leaves={})", seed, depth, leaves_per_branch);

@@ -21,11 +21,17 @@ Mesh make_quad(float size_x, float size_z, std::uint32_t material);
 Mesh make_checkerboard(float size_x, float size_z, int tiles_x, int tiles_z,
                        std::uint32_t material_a, std::uint32_t material_b);
 
+/// Largest `depth` make_plant accepts; each level triples the branches, (3^(depth+1) − 1)/2 in all.
+constexpr int kMaxPlantDepth = 8;
+/// Largest `leaves_per_branch` make_plant accepts.
+constexpr int kMaxPlantLeavesPerBranch = 1000;
+
 /// A plant: a tapering stem of `segments` cylinder rings that branches `depth` times, with
 /// leaves (curved, normal-interpolated blades of 8 triangles) along every branch, all of it
 /// deterministic in `seed`. About 1 unit tall, rooted at the origin, growing along +Y. Many
 /// small, thin, differently oriented triangles: the hard case for point sampling. Materials:
-/// `stem` for the branches, `leaf` for the leaves; uvs along and across each part.
+/// `stem` for the branches, `leaf` for the leaves; uvs along and across each part. Throws Error
+/// unless depth ∈ [0, kMaxPlantDepth] and leaves_per_branch ∈ [0, kMaxPlantLeavesPerBranch].
 Mesh make_plant(std::uint64_t seed, int depth, int leaves_per_branch, std::uint32_t stem,
                 std::uint32_t leaf);
 

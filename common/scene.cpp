@@ -151,10 +151,10 @@ std::ostream& operator<<(std::ostream& os, const Camera& c) {
     constexpr float kDegreesPerRadian = 180.0f / kPi;
     return os << fmt::format(
                "Camera{{eye={}, look_at={}, up={}, fov={:.6g}°, resolution={}x{}, "
-               "aperture_radius={}, focal_distance={}}}",
+               "aperture_radius={}, focal_distance={}, pixel_aspect={}}}",
                format_vec(c.eye), format_vec(c.look_at), format_vec(c.up),
                c.vertical_fov * kDegreesPerRadian, c.width, c.height, c.aperture_radius,
-               c.focal_distance);
+               c.focal_distance, c.pixel_aspect);
 }
 
 std::ostream& operator<<(std::ostream& os, const Material& m) {

@@ -287,6 +287,10 @@ JsonValue JsonValue::child(const Json& value, std::string_view token) const {
 }
 
 float JsonValue::number(const NumberRange& range) const {
+    return static_cast<float>(double_number(range));
+}
+
+double JsonValue::double_number(const NumberRange& range) const {
     if (!m_value->is_number()) {
         fail_expected(range.describe());
     }
@@ -297,7 +301,7 @@ float JsonValue::number(const NumberRange& range) const {
     if (!range.contains(x)) {
         fail_expected(range.describe());
     }
-    return static_cast<float>(x);
+    return x;
 }
 
 float JsonValue::nonzero_number() const {

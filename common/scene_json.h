@@ -68,6 +68,9 @@ class JsonValue {
     [[noreturn]] void fail_expected(std::string_view expected) const;
 
     float number(const NumberRange& range = NumberRange::any()) const;
+    /// As number(), without the rounding to single precision: for values that are converted
+    /// (degrees to radians) before they are stored, so that they are rounded once.
+    double double_number(const NumberRange& range = NumberRange::any()) const;
     float nonzero_number() const;
     int integer(int low, int high) const;
     bool boolean() const;

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <optional>
@@ -29,6 +30,7 @@ constexpr int kMaxResolution = 65536;
 constexpr int kMaxBounces = 1000;
 constexpr int kMaxSegments = 65536;
 constexpr int kMaxTiles = 65536;
+constexpr int kMaxPlantSeed = std::numeric_limits<int>::max();
 constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
 constexpr float kDefaultVerticalFovDegrees = 45.0f;
 // Pixel width over height: anamorphic formats stay within 1:4 .. 4:1; beyond 1:100 the
@@ -195,6 +197,56 @@ Affine3f read_transform(const JsonValue& value) {
     return result;
 }
 
+/// {"uv_matrix": [9 numbers]}: 3×3, row-major, affine and invertible. Any Material::uv_transform
+/// can be written this way exactly (scene records do).
+Affine2f read_uv_matrix(const JsonValue& value) {
+    const std::vector<float> m = value.numbers(9, "an array of 9 numbers (3x3, row-major)");
+    if (m[6] != 0.0f || m[7] != 0.0f || m[8] != 1.0f) {
+        value.fail_expected("a last row of 0, 0, 1 (an affine matrix)");
+    }
+    Eigen::Matrix2f linear;
+    linear << m[0], m[1], m[3], m[4];
+    // In double, where products of floats are exact: tiny but valid scales do not underflow.
+    if (linear.cast<double>().determinant() == 0.0) {
+        value.fail_expected("an invertible matrix");
+    }
+    Affine2f transform = Affine2f::Identity();
+    transform.linear() = linear;
+    transform.translation() = Vec2f(m[2], m[5]);
+    return transform;
+}
+
+/// The uv transform of a texture object: "uv_matrix", or "uv_scale", "uv_rotate", "uv_offset".
+Affine2f read_uv_transform(const JsonObject& texture) {
+    if (const auto matrix = texture.optional("uv_matrix")) {
+        for (const char* other : {"uv_offset", "uv_rotate", "uv_scale"}) {
+            if (const auto conflicting = texture.optional(other)) {
+                conflicting->fail(R"(cannot be combined with "uv_matrix" (expected either )"
+                                  R"("uv_matrix" or any of "uv_scale", "uv_rotate", "uv_offset"))");
+            }
+        }
+        return read_uv_matrix(*matrix);
+    }
+    Vec2f scale(1.0f, 1.0f);
+    if (const auto uv_scale = texture.optional("uv_scale")) {
+        scale = uv_scale->vec2_or_number();
+        if (scale.x() == 0.0f || scale.y() == 0.0f) {
+            uv_scale->fail_expected("a non-zero number or an array of 2 non-zero numbers");
+        }
+    }
+    const auto uv_offset = texture.optional("uv_offset");
+    const Vec2f offset = uv_offset ? uv_offset->vec2() : Vec2f(0.0f, 0.0f);
+    const auto uv_rotate = texture.optional("uv_rotate");
+    const double degrees = uv_rotate ? uv_rotate->number() : 0.0;
+
+    // uv' = translate(offset) · rotate · scale(uv).
+    Affine2f transform = Affine2f::Identity();
+    transform.translate(offset)
+        .rotate(Eigen::Rotation2Df(static_cast<float>(degrees * kRadiansPerDegree)))
+        .scale(scale);
+    return transform;
+}
+
 class SceneBuilder {
   public:
     SceneBuilder(const std::filesystem::path& file, const SceneLoadOptions& options)
@@ -250,8 +302,10 @@ class SceneBuilder {
                        R"((look_at - eye); expected an explicit "up")");
         }
         const auto fov = camera.optional("fov");
+        // Degrees rounded to float first would be rounded twice, and about one float angle in
+        // eleven could then not be written at all (scene records write every angle exactly).
         c.vertical_fov = static_cast<float>(
-            (fov ? fov->number(NumberRange::open(0.0, 180.0)) : kDefaultVerticalFovDegrees) *
+            (fov ? fov->double_number(NumberRange::open(0.0, 180.0)) : kDefaultVerticalFovDegrees) *
             kRadiansPerDegree);
         if (const auto resolution = camera.optional("resolution")) {
             const std::string expected = "an array of 2 integers (width, height)";
@@ -323,27 +377,12 @@ class SceneBuilder {
     }
 
     void read_texture(const JsonValue& value, Material& material) {
-        const JsonObject object(value, {"file", "srgb", "uv_offset", "uv_rotate", "uv_scale"});
+        const JsonObject object(
+            value, {"file", "srgb", "uv_matrix", "uv_offset", "uv_rotate", "uv_scale"});
         const std::filesystem::path path = resolve(object.required("file"));
         const auto srgb_value = object.optional("srgb");
         const bool srgb = srgb_value ? srgb_value->boolean() : true;
-        Vec2f scale(1.0f, 1.0f);
-        if (const auto uv_scale = object.optional("uv_scale")) {
-            scale = uv_scale->vec2_or_number();
-            if (scale.x() == 0.0f || scale.y() == 0.0f) {
-                uv_scale->fail_expected("a non-zero number or an array of 2 non-zero numbers");
-            }
-        }
-        const auto uv_offset = object.optional("uv_offset");
-        const Vec2f offset = uv_offset ? uv_offset->vec2() : Vec2f(0.0f, 0.0f);
-        const auto uv_rotate = object.optional("uv_rotate");
-        const double degrees = uv_rotate ? uv_rotate->number() : 0.0;
-
-        // uv' = translate(offset) · rotate · scale(uv).
-        material.uv_transform = Affine2f::Identity();
-        material.uv_transform.translate(offset)
-            .rotate(Eigen::Rotation2Df(static_cast<float>(degrees * kRadiansPerDegree)))
-            .scale(scale);
+        material.uv_transform = read_uv_transform(object);
 
         const auto key = std::pair{path.string(), srgb};
         auto it = m_texture_index.find(key);
@@ -448,8 +487,8 @@ class SceneBuilder {
                 value.fail(R"(missing required key "shape" (or "instance"))");
             }
             instance.kind = Instance::Kind::Mesh;
-            instance.index =
-                read_shape(shape->choice({"checkerboard", "mesh", "quad", "sphere"}), value);
+            instance.index = read_shape(
+                shape->choice({"checkerboard", "mesh", "plant", "quad", "sphere"}), value);
         }
         if (const auto transform = value.find("transform")) {
             instance.transform = read_transform(*transform);
@@ -488,6 +527,9 @@ class SceneBuilder {
                 value, fmt::format("quad size={}x{} material={}", size.x(), size.y(), material),
                 [&] { return make_quad(size.x(), size.y(), material); });
         }
+        if (shape == "plant") {
+            return read_plant(value);
+        }
         const JsonObject object(value, {"materials", "shape", "size", "tiles", "transform"});
         const Vec2f size = read_size(object);
         int tiles_x = 8;
@@ -517,6 +559,26 @@ class SceneBuilder {
                 return make_checkerboard(size.x(), size.y(), tiles_x, tiles_z, material_a,
                                          material_b);
             });
+    }
+
+    std::uint32_t read_plant(const JsonValue& value) {
+        const JsonObject object(value, {"depth", "leaf_material", "leaves_per_branch", "seed",
+                                        "shape", "stem_material", "transform"});
+        const auto seed_value = object.optional("seed");
+        const int seed = seed_value ? seed_value->integer(0, kMaxPlantSeed) : 0;
+        const auto depth_value = object.optional("depth");
+        const int depth = depth_value ? depth_value->integer(0, kMaxPlantDepth) : 3;
+        const auto leaves_value = object.optional("leaves_per_branch");
+        const int leaves = leaves_value ? leaves_value->integer(0, kMaxPlantLeavesPerBranch) : 6;
+        const std::uint32_t stem = material_reference(object.required("stem_material"));
+        const std::uint32_t leaf = material_reference(object.required("leaf_material"));
+        return add_procedural(value,
+                              fmt::format("plant seed={} depth={} leaves={} materials={},{}", seed,
+                                          depth, leaves, stem, leaf),
+                              [&] {
+                                  return make_plant(static_cast<std::uint64_t>(seed), depth, leaves,
+                                                    stem, leaf);
+                              });
     }
 
     static Vec2f read_size(const JsonObject& object) {

@@ -1,12 +1,24 @@
 #!/usr/bin/env python3
-"""Summarises scripts/bench's raw results (Google Benchmark JSON and mrt-trace --stats files)
-into one JSON document on stdout (and into a file when one is named)."""
+"""Summarises scripts/bench's raw results (Google Benchmark JSON, mrt-trace --stats files and
+mrt-preprocess runs) into one JSON document on stdout (and into a file when one is named).
+Sections that scripts/bench did not run are left out."""
 
 import glob
 import json
 import os
+import re
 import statistics
 import sys
+
+# Wand & Straßer 2003, preprocessing on a 2 GHz Pentium 4: seconds and megabytes of memory.
+PAPER_PREPROCESSING = {
+    "machine": "2 GHz Pentium 4",
+    "scenes": [
+        {"triangles": 7440, "seconds": 5.7, "memory_mb": 2.3, "compare_with": "two-spheres"},
+        {"unique_triangles": 110231, "instanced_triangles": 8700000, "seconds": 443,
+         "memory_mb": 106, "compare_with": "field"},
+    ],
+}
 
 
 def kernels(path):
@@ -52,11 +64,84 @@ def renders(work, prefix):
     return out
 
 
+def gnu_time_fields(log):
+    """Wall time and maximum resident set of a `/usr/bin/time -v` report, when there is one."""
+    out = {}
+    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): ([\d:.]+)", log)
+    if wall:
+        seconds = 0.0
+        for part in wall.group(1).split(":"):
+            seconds = 60.0 * seconds + float(part)
+        out["time_wall_seconds"] = seconds
+    rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", log)
+    if rss:
+        out["max_rss_mb"] = int(rss.group(1)) * 1024 / 1e6
+    return out
+
+
+def summary_fields(log):
+    """What mrt-preprocess's summary (its first lines on stderr) says, as far as it says it:
+    "N triangles" or "N unique / M instanced triangles", times, peak memory, nodes, points."""
+    lines = log.splitlines()
+    start = next((i for i, l in enumerate(lines) if l.startswith("mrt-preprocess: ")
+                  and "peak memory" in l), None)
+    if start is None:
+        return {}
+    summary = "\n".join(lines[start:start + 2])
+    out = {}
+    for key, pattern in (("unique_triangles", r"(\d+) unique / \d+ instanced triangles"),
+                         ("instanced_triangles", r"(\d+) instanced triangles"),
+                         ("triangles", r"(\d+) triangles"), ("nodes", r"(\d+) nodes"),
+                         ("points", r"(\d+) points"), ("load_seconds", r"load ([\d.]+) s"),
+                         ("build_seconds", r"build ([\d.]+) s"),
+                         ("write_seconds", r"quantize\+write ([\d.]+) s"),
+                         ("peak_memory_mb", r"peak memory ([\d.]+) MB")):
+        match = re.search(pattern, summary)
+        if match:
+            out[key] = float(match.group(1)) if "." in match.group(1) else int(match.group(1))
+    return out
+
+
+def preprocessing(work):
+    groups = {}
+    for path in sorted(glob.glob(os.path.join(work, "preprocess-*.json"))):
+        with open(path) as f:
+            run = json.load(f)
+        with open(path[:-len(".json")] + ".log") as f:
+            log = f.read()
+        run.update(summary_fields(log))
+        run.update(gnu_time_fields(log))
+        groups.setdefault(run["scene"], []).append(run)
+    out = []
+    for scene, runs in sorted(groups.items()):
+        entry = {"scene": scene, "threads": runs[0]["threads"], "runs": len(runs)}
+        for key in ("unique_triangles", "instanced_triangles", "triangles", "nodes", "points"):
+            if key in runs[0]:
+                entry[key] = runs[0][key]
+        entry["file_mb"] = runs[0]["file_bytes"] / 1e6
+        entry["median_wall_seconds"] = statistics.median(r["wall_seconds"] for r in runs)
+        entry["wall_seconds"] = [r["wall_seconds"] for r in runs]
+        if all("max_rss_mb" in r for r in runs):
+            entry["median_peak_memory_mb"] = statistics.median(r["max_rss_mb"] for r in runs)
+            entry["peak_memory_from"] = "/usr/bin/time -v (maximum resident set)"
+        elif all("peak_memory_mb" in r for r in runs):
+            entry["median_peak_memory_mb"] = statistics.median(r["peak_memory_mb"] for r in runs)
+            entry["peak_memory_from"] = "mrt-preprocess summary"
+        for key in ("load_seconds", "build_seconds", "write_seconds"):
+            if all(key in r for r in runs):
+                entry["median_" + key] = statistics.median(r[key] for r in runs)
+        out.append(entry)
+    return out
+
+
 def main():
     work = sys.argv[1]
-    report = kernels(os.path.join(work, "kernels.json"))
-    report["whitted_renders"] = renders(work, "render")
-    report["distributed_renders"] = renders(work, "distributed")
+    report = {}
+    if os.path.isfile(os.path.join(work, "kernels.json")):
+        report.update(kernels(os.path.join(work, "kernels.json")))
+    for key, prefix in (("whitted_renders", "render"), ("distributed_renders", "distributed")):
+        if glob.glob(os.path.join(work, prefix + "-*.json")):
+            report[key] = renders(work, prefix)
     carried = {r["scene"]: r for r in renders(work, "differentials")}
     if "always" in carried and "when-read" in carried:
         report["differentials_overhead"] = {
@@ -66,6 +151,9 @@ def main():
             "ratio": carried["always"]["median_render_seconds"]
             / carried["when-read"]["median_render_seconds"],
         }
+    if glob.glob(os.path.join(work, "preprocess-*.json")):
+        report["preprocessing"] = preprocessing(work)
+        report["paper_preprocessing"] = PAPER_PREPROCESSING
     text = json.dumps(report, indent=2)
     print(text)
     if len(sys.argv) > 2 and sys.argv[2]:

@@ -1,6 +1,7 @@
 #include "common/scene_loader.h"
 #include "common/data_path.h"
 #include "common/error.h"
+#include "common/procedural.h"
 #include "common/scene.h"
 #include "common/scene_json.h"
 
@@ -462,6 +463,47 @@ TEST(SceneLoader, SameProceduralShapeAndMaterialShareOneMesh) {
     EXPECT_NE(std::find(board.materials.begin(), board.materials.end(), 1u), board.materials.end());
 }
 
+TEST(SceneLoader, PlantIsMakePlantWithTheSameParameters) {
+    const Scene scene = parse(SceneParts()
+                                  .objects(R"([
+        {"shape": "plant", "seed": 7, "depth": 2, "leaves_per_branch": 5,
+         "stem_material": "glass", "leaf_material": "red"},
+        {"shape": "plant", "seed": 7, "depth": 2, "leaves_per_branch": 5,
+         "stem_material": "glass", "leaf_material": "red", "transform": {"translate": [2, 0, 0]}},
+        {"shape": "plant", "seed": 8, "depth": 2, "leaves_per_branch": 5,
+         "stem_material": "glass", "leaf_material": "red"}])")
+                                  .json());
+    const auto& children = scene.groups[scene.root].children;
+    ASSERT_EQ(children.size(), 3u);
+    EXPECT_EQ(children[0].index, children[1].index);
+    EXPECT_NE(children[0].index, children[2].index);
+    ASSERT_EQ(scene.meshes.size(), 2u);
+    // Materials in file order: red is 0, glass is 1.
+    const Mesh expected = make_plant(7, 2, 5, 1, 0);
+    const Mesh& plant = scene.meshes[children[0].index];
+    // (3^3 − 1)/2 = 13 branches of 4 rings × 6 sides × 2 triangles, and 5 leaves of 8 each.
+    EXPECT_EQ(expected.triangle_count(), 13u * (48u + 5u * 8u));
+    EXPECT_EQ(plant.triangle_count(), expected.triangle_count());
+    EXPECT_EQ(plant.positions, expected.positions);
+    EXPECT_EQ(plant.materials, expected.materials);
+    EXPECT_NE(std::find(plant.materials.begin(), plant.materials.end(), 0u), plant.materials.end());
+    EXPECT_NE(std::find(plant.materials.begin(), plant.materials.end(), 1u), plant.materials.end());
+    EXPECT_EQ(scene.meshes[children[2].index].triangle_count(), expected.triangle_count());
+    EXPECT_NE(scene.meshes[children[2].index].positions, expected.positions);
+}
+
+TEST(SceneLoader, PlantDefaultsToSeedZeroDepthThreeAndSixLeavesPerBranch) {
+    const Scene scene = parse(SceneParts()
+                                  .objects(R"([
+        {"shape": "plant", "stem_material": "red", "leaf_material": "glass"}])")
+                                  .json());
+    ASSERT_EQ(scene.meshes.size(), 1u);
+    const Mesh expected = make_plant(0, 3, 6, 0, 1);
+    EXPECT_EQ(scene.meshes[0].triangle_count(), 40u * (48u + 6u * 8u));
+    EXPECT_EQ(scene.meshes[0].triangle_count(), expected.triangle_count());
+    EXPECT_EQ(scene.meshes[0].positions, expected.positions);
+}
+
 TEST(SceneLoader, SameMeshFileIsLoadedOnceAndInstanced) {
     TempDir dir;
     dir.write("meshes/tetra.obj", kTetrahedronObj);
@@ -504,11 +546,45 @@ TEST(SceneLoader, LoadsTheDocumentedExampleWithEveryFeature) {
     EXPECT_EQ(scene.point_lights.size(), 2u);
     EXPECT_EQ(scene.area_lights.size(), 2u);
     ASSERT_EQ(scene.groups.size(), 3u);
-    EXPECT_EQ(scene.groups[scene.root].children.size(), 7u);
-    // checkerboard, tetrahedron (shared by two objects), sphere, textured quad, plant sphere,
-    // leaf quad.
-    EXPECT_EQ(scene.meshes.size(), 6u);
+    EXPECT_EQ(scene.groups[scene.root].children.size(), 8u);
+    // checkerboard, tetrahedron (shared by two objects), sphere, textured quad, procedural plant,
+    // the plant group's sphere, leaf quad.
+    EXPECT_EQ(scene.meshes.size(), 7u);
     EXPECT_GT(scene.instanced_triangle_count(), scene.unique_triangle_count());
+}
+
+/// Meshes of a loaded scene that make_plant made (it names them "plant(seed=…").
+std::size_t plant_mesh_count(const Scene& scene) {
+    return static_cast<std::size_t>(
+        std::count_if(scene.meshes.begin(), scene.meshes.end(),
+                      [](const Mesh& mesh) { return mesh.name.rfind("plant(", 0) == 0; }));
+}
+
+// data/scenes/field.json, from scripts/make-field: the paper's Figure 7 scene (Wand & Straßer
+// 2003 give 110 231 unique and 8.7 M instanced triangles).
+TEST(SceneLoader, FieldSceneHasThePapersUniqueAndInstancedTriangleCounts) {
+    const ScopedDataPath data(MRT_TEST_DATA_DIRS);
+    const Scene scene = load_scene(fs::path(MRT_SOURCE_DIR) / "data" / "scenes" / "field.json");
+    // In the test's XML report (--gtest_output=xml), for docs and benchmarks.
+    RecordProperty("unique_triangles", std::to_string(scene.unique_triangle_count()));
+    RecordProperty("instanced_triangles", std::to_string(scene.instanced_triangle_count()));
+    EXPECT_GE(scene.instanced_triangle_count(), 8'700'000u);
+    EXPECT_NEAR(static_cast<double>(scene.unique_triangle_count()), 110'231.0, 11'023.0);
+    EXPECT_GE(plant_mesh_count(scene), 3u);
+    EXPECT_EQ(scene.camera.width, 640);
+    EXPECT_EQ(scene.camera.height, 480);
+    EXPECT_EQ(scene.area_lights.size(), 1u);
+}
+
+TEST(SceneLoader, ScaledUpFieldSceneInstancesTheSameGeometryPast100MTriangles) {
+    const ScopedDataPath data(MRT_TEST_DATA_DIRS);
+    const fs::path scenes = fs::path(MRT_SOURCE_DIR) / "data" / "scenes";
+    const Scene field = load_scene(scenes / "field.json");
+    const Scene scaled = load_scene(scenes / "field-100m.json");
+    RecordProperty("instanced_triangles", std::to_string(scaled.instanced_triangle_count()));
+    EXPECT_GE(scaled.instanced_triangle_count(), 100'000'000u);
+    EXPECT_EQ(scaled.unique_triangle_count(), field.unique_triangle_count());
+    EXPECT_EQ(scaled.meshes.size(), field.meshes.size());
 }
 
 // ---- Paths -----------------------------------------------------------------------------------
@@ -928,7 +1004,7 @@ std::vector<Mistake> mistakes() {
         {"ObjectWithoutShape", object(R"("material": "red")"),
          R"(scene.json: /objects/0: missing required key "shape" (or "instance"))"},
         {"UnknownShape", object(R"("shape": "cube", "material": "red")"),
-         R"(scene.json: /objects/0/shape: found "cube", expected one of: checkerboard, mesh, quad, sphere)"},
+         R"(scene.json: /objects/0/shape: found "cube", expected one of: checkerboard, mesh, plant, quad, sphere)"},
         {"ShapeWithoutMaterial", object(R"("shape": "sphere")"),
          R"(scene.json: /objects/0: missing required key "material")"},
         {"MaterialNotAString", object(R"("shape": "sphere", "material": 0)"),
@@ -954,6 +1030,30 @@ std::vector<Mistake> mistakes() {
         {"CheckerboardWithZeroTiles",
          object(R"("shape": "checkerboard", "tiles": [0, 2], "materials": ["red", "glass"])"),
          "scene.json: /objects/0/tiles/0: found 0, expected an integer in [1, 65536]"},
+        {"PlantWithoutLeafMaterial", object(R"("shape": "plant", "stem_material": "red")"),
+         R"(scene.json: /objects/0: missing required key "leaf_material")"},
+        {"PlantWithUnknownStemMaterial",
+         object(R"("shape": "plant", "stem_material": "bark", "leaf_material": "red")"),
+         R"(scene.json: /objects/0/stem_material: unknown material "bark" (expected one of: )"
+         R"(glass, red))"},
+        {"PlantWithMaterial", object(R"("shape": "plant", "material": "red")"),
+         "scene.json: /objects/0/material: unknown key (expected one of: depth, leaf_material, "
+         "leaves_per_branch, seed, shape, stem_material, transform)"},
+        {"PlantTooDeep",
+         object(R"("shape": "plant", "depth": 9, "stem_material": "red", "leaf_material": "red")"),
+         "scene.json: /objects/0/depth: found 9, expected an integer in [0, 8]"},
+        {"PlantNegativeDepth",
+         object(R"("shape": "plant", "depth": -1, "stem_material": "red", "leaf_material": "red")"),
+         "scene.json: /objects/0/depth: found -1, expected an integer in [0, 8]"},
+        {"PlantTooManyLeaves", object(R"("shape": "plant", "leaves_per_branch": 1001,
+                                          "stem_material": "red", "leaf_material": "red")"),
+         "scene.json: /objects/0/leaves_per_branch: found 1001, expected an integer in [0, 1000]"},
+        {"PlantNegativeSeed",
+         object(R"("shape": "plant", "seed": -3, "stem_material": "red", "leaf_material": "red")"),
+         "scene.json: /objects/0/seed: found -3, expected an integer in [0, 2147483647]"},
+        {"PlantSeedFraction",
+         object(R"("shape": "plant", "seed": 1.5, "stem_material": "red", "leaf_material": "red")"),
+         "scene.json: /objects/0/seed: found 1.5, expected an integer in [0, 2147483647]"},
         {"UnknownInstance",
          SceneParts()
              .groups(R"({"plant": {"objects": []}})")
