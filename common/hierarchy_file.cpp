@@ -26,6 +26,9 @@ constexpr std::uint32_t kUvs = section_tag("VTUV");
 constexpr std::uint32_t kTriangles = section_tag("TRIS");
 constexpr std::uint32_t kMaterials = section_tag("TMAT");
 constexpr std::uint32_t kBuild = section_tag("BILD");
+constexpr std::uint32_t kObjects = section_tag("OBJS");
+constexpr std::uint32_t kInstances = section_tag("INST");
+constexpr std::uint32_t kScene = section_tag("SCEN");
 
 constexpr std::uint32_t kNoParent = 0xffffffffu;
 
@@ -101,10 +104,6 @@ void check_node(const std::filesystem::path& file, const HierarchyView& a, std::
                                 n.first_triangle, n.first_triangle, n.triangle_count,
                                 a.node_triangles.size(), tag_name(kNodeTriangles)));
     }
-    if (i == 0 && n.parent != kNoParent) {
-        throw Error(file, at,
-                    fmt::format("the root's parent is {}, expected 0xffffffff", n.parent));
-    }
     if (n.child_mask == 0) {
         return;
     }
@@ -136,25 +135,176 @@ void check_node(const std::filesystem::path& file, const HierarchyView& a, std::
     }
 }
 
+/// A range [first, first + count) inside [0, size), in 64 bits so that wrapping cannot pass.
+bool within(std::uint64_t first, std::uint64_t count, std::uint64_t size) {
+    return first + count <= size;
+}
+
+/// The objects partition the nodes in order, each one tree rooted at its first node (every
+/// other node the child of the node its parent field names, inside the object); a mesh object's
+/// nodes keep only its own triangles, whose vertices are its own; a group object's nodes keep
+/// instances of objects listed before it, so instancing has no cycles.
+void check_objects(const std::filesystem::path& file, const HierarchyView& a) {
+    if (a.objects.empty()) {
+        throw Error(file, where(kObjects), "no objects, expected at least one");
+    }
+    if (a.world_object >= a.objects.size()) {
+        throw Error(file, where(kHead),
+                    fmt::format("world object {} does not exist (section '{}' has {})",
+                                a.world_object, tag_name(kObjects), a.objects.size()));
+    }
+    std::uint64_t next_node = 0;
+    for (std::size_t o = 0; o < a.objects.size(); ++o) {
+        const HierarchyObject& object = a.objects[o];
+        const std::string at = where(kObjects, o);
+        if (object.first_node != next_node || object.node_count == 0 ||
+            !within(object.first_node, object.node_count, a.nodes.size())) {
+            throw Error(file, at,
+                        fmt::format("nodes [{}, {} + {}), expected a non-empty range starting at "
+                                    "{} inside the {} nodes (objects partition them in order)",
+                                    object.first_node, object.first_node, object.node_count,
+                                    next_node, a.nodes.size()));
+        }
+        next_node += object.node_count;
+        const bool mesh = object.kind == HierarchyObjectKind::Mesh;
+        if (!mesh && object.kind != HierarchyObjectKind::Group) {
+            throw Error(file, at,
+                        fmt::format("kind {}, expected 0 (mesh) or 1 (group)",
+                                    static_cast<std::uint32_t>(object.kind)));
+        }
+        if (object.reserved != 0 || (!mesh && (object.first_triangle | object.triangle_count |
+                                               object.first_vertex | object.vertex_count) != 0)) {
+            throw Error(file, at,
+                        "a group's triangle and vertex ranges and the reserved field "
+                        "must be zero");
+        }
+        if (!within(object.first_triangle, object.triangle_count, a.triangles.size()) ||
+            !within(object.first_vertex, object.vertex_count, a.vertex_positions.size())) {
+            throw Error(
+                file, at,
+                fmt::format("triangles [{}, {} + {}) or vertices [{}, {} + {}) run past "
+                            "the {} triangles or {} vertices",
+                            object.first_triangle, object.first_triangle, object.triangle_count,
+                            object.first_vertex, object.first_vertex, object.vertex_count,
+                            a.triangles.size(), a.vertex_positions.size()));
+        }
+        for (std::uint64_t t = object.first_triangle;
+             t < std::uint64_t{object.first_triangle} + object.triangle_count; ++t) {
+            for (const std::uint32_t v : a.triangles[t]) {
+                if (v < object.first_vertex ||
+                    v >= std::uint64_t{object.first_vertex} + object.vertex_count) {
+                    throw Error(file, where(kTriangles, t),
+                                fmt::format("vertex {} is not one of its object's ({}: [{}, {} "
+                                            "+ {}))",
+                                            v, o, object.first_vertex, object.first_vertex,
+                                            object.vertex_count));
+                }
+            }
+        }
+        const std::uint64_t end = std::uint64_t{object.first_node} + object.node_count;
+        for (std::uint64_t i = object.first_node; i < end; ++i) {
+            const HierarchyNode& n = a.nodes[i];
+            const std::string node_at = where(kNode, i);
+            if (i == object.first_node) {
+                if (n.parent != kNoParent || n.level != 0) {
+                    throw Error(file, node_at,
+                                fmt::format("root of object {} with parent {} and level {}, "
+                                            "expected 0xffffffff and 0",
+                                            o, n.parent, n.level));
+                }
+            } else {
+                const std::uint32_t p = n.parent;
+                const bool listed =
+                    p >= object.first_node && p < i && a.nodes[p].child_mask != 0 &&
+                    a.nodes[p].first_child <= i &&
+                    i < std::uint64_t{a.nodes[p].first_child} +
+                            static_cast<unsigned>(std::popcount(a.nodes[p].child_mask));
+                if (!listed) {
+                    throw Error(file, node_at,
+                                p == kNoParent
+                                    ? fmt::format("has no parent, but only the first node of "
+                                                  "object {} is its root",
+                                                  o)
+                                    : fmt::format("parent {} is not a node of object {} that "
+                                                  "lists it among its children",
+                                                  p, o));
+                }
+            }
+            if (n.child_mask != 0 &&
+                std::uint64_t{n.first_child} + static_cast<unsigned>(std::popcount(n.child_mask)) >
+                    end) {
+                throw Error(file, node_at,
+                            fmt::format("children from {} run past the nodes of object {}",
+                                        n.first_child, o));
+            }
+            if (mesh) {
+                if (n.instance_count != 0) {
+                    throw Error(file, node_at,
+                                fmt::format("{} instances in a node of mesh object {}",
+                                            n.instance_count, o));
+                }
+                for (std::uint32_t k = 0; k < n.triangle_count; ++k) {
+                    const std::uint32_t t = a.node_triangles[n.first_triangle + k];
+                    if (t < object.first_triangle ||
+                        t >= std::uint64_t{object.first_triangle} + object.triangle_count) {
+                        throw Error(file, node_at,
+                                    fmt::format("keeps triangle {}, which is not one of object "
+                                                "{}'s",
+                                                t, o));
+                    }
+                }
+                continue;
+            }
+            if (n.triangle_count != 0) {
+                throw Error(
+                    file, node_at,
+                    fmt::format("{} triangles in a node of group object {}", n.triangle_count, o));
+            }
+            if (!within(n.first_instance, n.instance_count, a.instances.size())) {
+                throw Error(file, node_at,
+                            fmt::format("instances [{}, {} + {}) run past the {} of section '{}'",
+                                        n.first_instance, n.first_instance, n.instance_count,
+                                        a.instances.size(), tag_name(kInstances)));
+            }
+            for (std::uint32_t k = 0; k < n.instance_count; ++k) {
+                const std::uint32_t child = a.instances[n.first_instance + k].object;
+                if (child >= o) {
+                    throw Error(file, where(kInstances, n.first_instance + k),
+                                fmt::format("instance of object {} in group object {}: an "
+                                            "instance must refer to an object listed before "
+                                            "its group",
+                                            child, o));
+                }
+            }
+        }
+    }
+    if (next_node != a.nodes.size()) {
+        throw Error(file, where(kObjects),
+                    fmt::format("the objects cover {} of the {} nodes, expected all", next_node,
+                                a.nodes.size()));
+    }
+    for (std::size_t i = 0; i < a.instances.size(); ++i) {
+        const HierarchyInstance& instance = a.instances[i];
+        bool finite = true;
+        for (const float x : instance.transform) {
+            finite = finite && std::isfinite(x);
+        }
+        const float det = instance.affine().linear().determinant();
+        if (!finite || !std::isnormal(det) ||
+            (instance.reserved[0] | instance.reserved[1] | instance.reserved[2]) != 0) {
+            throw Error(file, where(kInstances, i),
+                        fmt::format("transform with determinant {}: expected finite, "
+                                    "invertible values and zero reserved fields",
+                                    det));
+        }
+    }
+}
+
 /// Every cross-reference of the arrays (lengths were checked before).
 void check_references(const std::filesystem::path& file, const HierarchyView& a,
                       std::optional<std::uint32_t> material_count) {
     for (std::size_t i = 0; i < a.nodes.size(); ++i) {
         check_node(file, a, i);
-    }
-    // Every node but the root is the child of the node its parent field names; with the checks
-    // above (children point back to their parent) the nodes form one tree rooted at node 0.
-    for (std::size_t i = 1; i < a.nodes.size(); ++i) {
-        const std::uint32_t p = a.nodes[i].parent;
-        const bool listed = p < i && a.nodes[p].child_mask != 0 && a.nodes[p].first_child <= i &&
-                            i < std::uint64_t{a.nodes[p].first_child} +
-                                    static_cast<unsigned>(std::popcount(a.nodes[p].child_mask));
-        if (!listed) {
-            throw Error(file, where(kNode, i),
-                        p == kNoParent
-                            ? std::string("has no parent, but only node 0 is a root")
-                            : fmt::format("parent {} does not list it among its children", p));
-        }
     }
     for (std::size_t i = 0; i < a.core.size(); ++i) {
         const VoxelCode& v = a.core[i].voxel;
@@ -187,6 +337,7 @@ void check_references(const std::filesystem::path& file, const HierarchyView& a,
             }
         }
     }
+    check_objects(file, a);
     if (material_count) {
         for (std::size_t i = 0; i < a.triangle_materials.size(); ++i) {
             if (a.triangle_materials[i] >= *material_count) {
@@ -220,10 +371,13 @@ void write_hierarchy_file(const std::filesystem::path& path, const HierarchyData
                                 kMaxVoxelGridResolution));
     }
     constexpr std::size_t kMaxCount = std::numeric_limits<std::uint32_t>::max();
-    if (data.nodes.size() > kMaxCount || data.core.size() > kMaxCount) {
+    if (data.nodes.size() > kMaxCount || data.core.size() > kMaxCount ||
+        data.objects.size() > kMaxCount || data.instances.size() > kMaxCount) {
         throw Error(path, where(kHead),
-                    fmt::format("{} nodes and {} points, at most 2^32 - 1 of each fit",
-                                data.nodes.size(), data.core.size()));
+                    fmt::format("{} nodes, {} points, {} objects and {} instances: at most "
+                                "2^32 - 1 of each fit",
+                                data.nodes.size(), data.core.size(), data.objects.size(),
+                                data.instances.size()));
     }
     const HierarchyView a = data.view();
     check_lengths(path, a);
@@ -233,9 +387,14 @@ void write_hierarchy_file(const std::filesystem::path& path, const HierarchyData
     head.grid = static_cast<std::uint32_t>(data.grid);
     head.node_count = static_cast<std::uint32_t>(data.nodes.size());
     head.point_count = static_cast<std::uint32_t>(data.core.size());
+    head.object_count = static_cast<std::uint32_t>(data.objects.size());
+    head.instance_count = static_cast<std::uint32_t>(data.instances.size());
+    head.world_object = data.world_object;
 
     SectionFileWriter writer(kHierarchyFileVersion);
     writer.add_array<HierarchyHeader>(kHead, std::span(&head, 1));
+    writer.add_array<HierarchyObject>(kObjects, data.objects);
+    writer.add_array<HierarchyInstance>(kInstances, data.instances);
     writer.add_array<HierarchyNode>(kNode, data.nodes);
     writer.add_array<PointCore>(kCore, data.core);
     writer.add_array<PointDiffuse>(kDiffuse, data.diffuse);
@@ -248,8 +407,29 @@ void write_hierarchy_file(const std::filesystem::path& path, const HierarchyData
     add_if_present(writer, kUvs, data.vertex_uvs);
     writer.add_array<std::array<std::uint32_t, 3>>(kTriangles, data.triangles);
     writer.add_array<std::uint32_t>(kMaterials, data.triangle_materials);
+    writer.add(kScene, std::as_bytes(std::span(data.scene_json)));
     writer.add(kBuild, std::as_bytes(std::span(data.build_json)));
     writer.write(path);
+}
+
+Affine3f HierarchyInstance::affine() const {
+    Affine3f a = Affine3f::Identity();
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 4; ++c) {
+            a.matrix()(r, c) = transform[static_cast<std::size_t>(4 * r + c)];
+        }
+    }
+    return a;
+}
+
+std::array<float, 12> HierarchyInstance::pack(const Affine3f& t) {
+    std::array<float, 12> out{};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 4; ++c) {
+            out[static_cast<std::size_t>(4 * r + c)] = t.matrix()(r, c);
+        }
+    }
+    return out;
 }
 
 HierarchyFile::HierarchyFile(SectionFile file) : m_file(std::move(file)) {}
@@ -277,6 +457,9 @@ HierarchyFile HierarchyFile::open(const std::filesystem::path& path,
 
     HierarchyView& a = h.m_view;
     a.grid = static_cast<int>(head.grid);
+    a.world_object = head.world_object;
+    a.objects = f.array<HierarchyObject>(kObjects);
+    a.instances = f.array<HierarchyInstance>(kInstances);
     a.nodes = f.array<HierarchyNode>(kNode);
     a.core = f.array<PointCore>(kCore);
     a.diffuse = f.array<PointDiffuse>(kDiffuse);
@@ -289,6 +472,8 @@ HierarchyFile HierarchyFile::open(const std::filesystem::path& path,
     a.vertex_uvs = optional_array<std::array<float, 2>>(f, kUvs);
     a.triangles = f.array<std::array<std::uint32_t, 3>>(kTriangles);
     a.triangle_materials = f.array<std::uint32_t>(kMaterials);
+    const std::span<const std::byte> scene = f.bytes(kScene);
+    h.m_scene_json.assign(reinterpret_cast<const char*>(scene.data()), scene.size());
     const std::span<const std::byte> build = f.bytes(kBuild);
     h.m_build_json.assign(reinterpret_cast<const char*>(build.data()), build.size());
 
@@ -301,6 +486,13 @@ HierarchyFile HierarchyFile::open(const std::filesystem::path& path,
         throw Error(path, where(kHead),
                     fmt::format("{} points, but section '{}' has {}", head.point_count,
                                 tag_name(kCore), a.core.size()));
+    }
+    if (head.object_count != a.objects.size() || head.instance_count != a.instances.size()) {
+        throw Error(path, where(kHead),
+                    fmt::format("{} objects and {} instances, but sections '{}' and '{}' have {} "
+                                "and {}",
+                                head.object_count, head.instance_count, tag_name(kObjects),
+                                tag_name(kInstances), a.objects.size(), a.instances.size()));
     }
 
     check_lengths(path, a);

@@ -12,10 +12,21 @@
 //          or refraction                                   (PointMirror, 12 bytes)
 //   'PTRN' any refraction transparency, index of refraction (PointRefraction, 2 bytes)
 //
-// Nodes ('NODE', Node, 64 bytes) are in breadth-first order, so a node's children are
-// consecutive. Triangles kept in nodes are listed in 'NTRI' (indices into 'TRIS'); vertices in
-// 'VPOS' (float positions), 'VNRM' (quantized normals) and, when anything is textured, 'VTUV'.
-// 'TMAT' holds each triangle's material. 'BILD' is JSON text: the build parameters and times.
+// Geometry is instanced (DESIGN.md, Wand & Straßer §6 "hierarchical instantiation"): the file
+// holds objects ('OBJS', HierarchyObject), each a tree of nodes in its own space. A mesh object
+// is the point octree of one unique mesh; a group object is a tree over instances ('INST',
+// HierarchyInstance: an object and its transform into the group's space) whose inner nodes
+// carry group-space points approximating every instance below them, so a far-away field of
+// plants costs a few points, not one traversal per plant. An instance refers only to an object
+// listed before its group (no cycles); the world is one object of the header. A flattened build
+// is a single mesh object over every triangle of the world.
+//
+// Nodes ('NODE', Node, 64 bytes) are grouped by object; within one, breadth-first, so a node's
+// children are consecutive. Triangles kept in nodes are listed in 'NTRI' (indices into 'TRIS');
+// vertices in 'VPOS' (float positions, object space), 'VNRM' (quantized normals) and, when
+// anything is textured, 'VTUV'. 'TMAT' holds each triangle's material. 'SCEN' is the scene
+// record (common/scene_record.h: camera, lights, materials, textures; JSON text), 'BILD' JSON
+// text: the build parameters.
 
 #include "common/math.h"
 #include "common/quantization.h"
@@ -32,7 +43,7 @@
 namespace mrt {
 
 /// Format version of .mrh files this build reads and writes.
-inline constexpr std::uint32_t kHierarchyFileVersion = 1;
+inline constexpr std::uint32_t kHierarchyFileVersion = 2;
 
 /// The single record of the 'HEAD' section: the grid of every node and the counts the arrays
 /// are checked against.
@@ -40,14 +51,18 @@ struct HierarchyHeader {
     std::uint32_t grid;                      ///< Voxels per node side, k in [1, 256].
     std::uint32_t node_count;                ///< Records in 'NODE'.
     std::uint32_t point_count;               ///< Records in 'PCOR' and in every point channel.
-    std::array<std::uint32_t, 13> reserved;  ///< Zero; room for later versions.
+    std::uint32_t object_count;              ///< Records in 'OBJS' (at least one).
+    std::uint32_t instance_count;            ///< Records in 'INST'.
+    std::uint32_t world_object;              ///< The object that is the scene (world space).
+    std::array<std::uint32_t, 10> reserved;  ///< Zero; room for later versions.
 };
 static_assert(sizeof(HierarchyHeader) == 64);
 
 /// One octree node. Children are nodes [first_child, first_child + popcount(child_mask)) in
 /// octant order; octant bit i set means a child in octant i (x = bit 0, y = bit 1, z = bit 2).
+/// Positions are in the space of the node's object.
 struct HierarchyNode {
-    std::array<float, 3> origin;         ///< Minimum corner of the node's cube (world).
+    std::array<float, 3> origin;         ///< Minimum corner of the node's cube.
     float side;                          ///< Edge of the cube; voxel = side / grid.
     std::array<float, 3> sphere_centre;  ///< Bounding sphere of the whole subtree.
     float sphere_radius;
@@ -58,11 +73,42 @@ struct HierarchyNode {
     std::uint32_t first_child;  ///< Meaningful when child_mask ≠ 0.
     std::uint32_t parent;       ///< The root's is 0xffffffff.
     std::uint8_t child_mask;
-    std::uint8_t level;
-    std::uint16_t reserved0;
-    std::uint32_t reserved1;
+    std::uint8_t level;            ///< Depth below the root of its object's tree.
+    std::uint16_t instance_count;  ///< Group objects: instances held in this node.
+    std::uint32_t first_instance;  ///< Into 'INST'; meaningful when instance_count ≠ 0.
 };
 static_assert(sizeof(HierarchyNode) == 64);
+
+/// What an object is made of.
+enum class HierarchyObjectKind : std::uint32_t {
+    Mesh = 0,   ///< A point octree over triangles: nodes hold points and triangles.
+    Group = 1,  ///< A tree over instances: nodes hold points and instances.
+};
+
+/// One object of 'OBJS': its nodes and, for a mesh, its triangles and vertices, each a range.
+struct HierarchyObject {
+    std::uint32_t first_node;  ///< Its root; the tree is [first_node, first_node + node_count).
+    std::uint32_t node_count;
+    HierarchyObjectKind kind;
+    std::uint32_t first_triangle;  ///< Mesh: its triangles in 'TRIS' (zero for a group).
+    std::uint32_t triangle_count;
+    std::uint32_t first_vertex;  ///< Mesh: the vertices its triangles use (zero for a group).
+    std::uint32_t vertex_count;
+    std::uint32_t reserved;  ///< Zero.
+};
+static_assert(sizeof(HierarchyObject) == 32);
+
+/// One record of 'INST': `object` placed in its group's space by the affine map `transform`
+/// (row-major 3×4, object space → group space; finite and invertible).
+struct HierarchyInstance {
+    std::array<float, 12> transform;
+    std::uint32_t object;                   ///< Listed before the group that holds it.
+    std::array<std::uint32_t, 3> reserved;  ///< Zero.
+
+    Affine3f affine() const;
+    static std::array<float, 12> pack(const Affine3f& transform);
+};
+static_assert(sizeof(HierarchyInstance) == 64);
 
 struct PointCore {
     VoxelCode voxel;        ///< Voxel of the node's grid; the point sits at its centre.
@@ -101,6 +147,9 @@ static_assert(sizeof(PointRefraction) == 2);
 /// mapped file): what the consistency checks and the tracer read.
 struct HierarchyView {
     int grid = 0;
+    std::uint32_t world_object = 0;
+    std::span<const HierarchyObject> objects;
+    std::span<const HierarchyInstance> instances;
     std::span<const HierarchyNode> nodes;
     std::span<const PointCore> core;
     std::span<const PointDiffuse> diffuse;
@@ -119,6 +168,9 @@ struct HierarchyView {
 /// when the scene does not need them; present ones have one record per point.
 struct HierarchyData {
     int grid = 16;
+    std::uint32_t world_object = 0;
+    std::vector<HierarchyObject> objects;
+    std::vector<HierarchyInstance> instances;
     std::vector<HierarchyNode> nodes;
     std::vector<PointCore> core;
     std::vector<PointDiffuse> diffuse;
@@ -131,22 +183,14 @@ struct HierarchyData {
     std::vector<std::array<float, 2>> vertex_uvs;  ///< Empty, or one per vertex.
     std::vector<std::array<std::uint32_t, 3>> triangles;
     std::vector<std::uint32_t> triangle_materials;
-    std::string build_json = "{}";  ///< Build parameters and times.
+    std::string scene_json = "{}";  ///< The scene record (common/scene_record.h).
+    std::string build_json = "{}";  ///< Build parameters.
 
     HierarchyView view() const {
-        return {grid,
-                nodes,
-                core,
-                diffuse,
-                specular,
-                mirror,
-                refraction,
-                node_triangles,
-                vertex_positions,
-                vertex_normals,
-                vertex_uvs,
-                triangles,
-                triangle_materials};
+        return {grid,           world_object, objects,        instances,
+                nodes,          core,         diffuse,        specular,
+                mirror,         refraction,   node_triangles, vertex_positions,
+                vertex_normals, vertex_uvs,   triangles,      triangle_materials};
     }
 };
 
@@ -155,8 +199,9 @@ struct HierarchyData {
 void write_hierarchy_file(const std::filesystem::path& path, const HierarchyData& data);
 
 /// A .mrh file opened for reading: the file is validated as a SectionFile and every index
-/// (points, children, parents, node triangles, vertices, materials below `material_count`
-/// when given) is checked before open() returns; the spans read the mapped bytes in place.
+/// (objects' ranges, instances and their order, points, children, parents, node triangles,
+/// vertices, materials below `material_count` when given) is checked before open() returns; the
+/// spans read the mapped bytes in place.
 class HierarchyFile {
   public:
     static HierarchyFile open(const std::filesystem::path& path,
@@ -164,6 +209,9 @@ class HierarchyFile {
 
     const HierarchyView& view() const { return m_view; }
     int grid() const { return m_view.grid; }
+    std::uint32_t world_object() const { return m_view.world_object; }
+    std::span<const HierarchyObject> objects() const { return m_view.objects; }
+    std::span<const HierarchyInstance> instances() const { return m_view.instances; }
     std::span<const HierarchyNode> nodes() const { return m_view.nodes; }
     std::span<const PointCore> core() const { return m_view.core; }
     std::span<const PointDiffuse> diffuse() const { return m_view.diffuse; }
@@ -178,6 +226,7 @@ class HierarchyFile {
     std::span<const std::array<float, 2>> vertex_uvs() const { return m_view.vertex_uvs; }
     std::span<const std::array<std::uint32_t, 3>> triangles() const { return m_view.triangles; }
     std::span<const std::uint32_t> triangle_materials() const { return m_view.triangle_materials; }
+    const std::string& scene_json() const { return m_scene_json; }
     const std::string& build_json() const { return m_build_json; }
     const SectionFile& sections() const { return m_file; }
 
@@ -186,6 +235,7 @@ class HierarchyFile {
 
     SectionFile m_file;
     HierarchyView m_view;  ///< Spans into m_file's mapping.
+    std::string m_scene_json;
     std::string m_build_json;
 };
 

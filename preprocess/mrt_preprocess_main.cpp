@@ -3,14 +3,17 @@
 
 #include "common/error.h"
 #include "common/hierarchy_file.h"
+#include "common/hierarchy_summary.h"
 #include "common/memory_usage.h"
 #include "common/progress.h"
 #include "common/scene_loader.h"
+#include "common/scene_record.h"
 #include "common/stopwatch.h"
 #include "common/texture.h"
 #include "common/tool_main.h"
 #include "preprocess/hierarchy_pack.h"
 #include "preprocess/point_octree.h"
+#include "preprocess/scene_hierarchy.h"
 
 #include <fmt/format.h>
 #include <tbb/global_control.h>
@@ -21,7 +24,6 @@
 #include <exception>
 #include <filesystem>
 #include <iostream>
-#include <map>
 #include <memory>
 #include <new>
 
@@ -35,6 +37,7 @@ struct Arguments {
     std::filesystem::path output;
     mrt::PointOctreeOptions octree;
     int threads = 0;
+    bool flatten = false;
     bool quiet = false;
 };
 
@@ -47,8 +50,7 @@ int run(const Arguments& args) {
         }
     };
     const mrt::Scene scene = mrt::load_scene(args.scene, load_options);
-    // Instances are expanded for now: one octree over every triangle of the world.
-    const mrt::Mesh world = mrt::flatten(scene);
+    const std::string scene_record = mrt::scene_record_json(scene);
     const std::unique_ptr<mrt::TextureSampler> textures =
         scene.textures.empty()
             ? nullptr
@@ -56,9 +58,11 @@ int run(const Arguments& args) {
     const double load_seconds = seconds_since(load_start);
 
     const auto build_start = Clock::now();
-    mrt::Progress progress("octree", world.triangle_count(), args.quiet);
-    const mrt::PointOctree octree =
-        mrt::build_point_octree(world, scene.materials, textures.get(), args.octree, &progress);
+    const std::uint64_t triangles =
+        args.flatten ? scene.instanced_triangle_count() : scene.unique_triangle_count();
+    mrt::Progress progress("octree", triangles, args.quiet);
+    const mrt::SceneHierarchy hierarchy =
+        mrt::build_scene_hierarchy(scene, textures.get(), args.octree, args.flatten, &progress);
     progress.finish();
     const double build_seconds = seconds_since(build_start);
 
@@ -70,30 +74,24 @@ int run(const Arguments& args) {
         {"max_representatives", args.octree.max_representatives},
         {"oversampling", args.octree.oversampling},
         {"seed", args.octree.seed},
+        {"flatten", args.flatten},
     };
     const auto write_start = Clock::now();
     const mrt::HierarchyData data =
-        mrt::pack_hierarchy(octree, world, scene.materials, build.dump());
+        mrt::pack_hierarchy(hierarchy, scene.materials, scene_record, build.dump());
     mrt::write_hierarchy_file(args.output, data);
     const double write_seconds = seconds_since(write_start);
 
     if (!args.quiet) {
-        std::map<int, std::pair<std::size_t, std::size_t>> per_level;  // points, triangles
-        for (const mrt::OctreeNode& node : octree.nodes) {
-            per_level[node.level].first += node.points.size();
-            per_level[node.level].second += node.triangles.size();
-        }
         std::cerr << fmt::format(
-            "mrt-preprocess: {}: {} triangles → {} nodes, {} points; load {:.2f} s, build {:.2f} "
+            "mrt-preprocess: {}: {} unique / {} instanced triangles; load {:.2f} s, build {:.2f} "
             "s, quantize+write {:.2f} s; {:.1f} MB written, peak memory {:.1f} MB\n",
-            args.output.string(), world.triangle_count(), octree.nodes.size(), data.core.size(),
+            args.output.string(), scene.unique_triangle_count(), scene.instanced_triangle_count(),
             load_seconds, build_seconds, write_seconds,
             static_cast<double>(std::filesystem::file_size(args.output)) / 1e6,
             static_cast<double>(mrt::peak_rss_bytes()) / 1e6);
-        for (const auto& [level, counts] : per_level) {
-            std::cerr << fmt::format("  level {:2}: {:9} points {:9} triangles\n", level,
-                                     counts.first, counts.second);
-        }
+        // Read back through the reader: what is summarised is what a tracer will accept.
+        std::cerr << mrt::hierarchy_summary(mrt::HierarchyFile::open(args.output), "  ");
     }
     return 0;
 }
@@ -123,6 +121,9 @@ int main(int argc, char** argv) {
     app.add_option("--threads", args.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024))
         ->default_val(0);
+    app.add_flag("--flatten", args.flatten,
+                 "One octree over every triangle in world space (instances expanded) instead of "
+                 "one per unique mesh under instance trees");
     app.add_flag("-q,--quiet", args.quiet, "No summary");
     return mrt::run_tool(app, argc, argv, [&] {
         std::optional<tbb::global_control> limit;

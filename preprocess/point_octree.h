@@ -63,9 +63,12 @@ struct OctreeNode {
     int level = 0;
     std::vector<OctreePoint> points;
     std::vector<std::uint32_t> triangles;  ///< Mesh triangles kept here, ascending.
+    /// Instance trees (preprocess/scene_hierarchy.h): the instances held here, ascending.
+    std::vector<std::uint32_t> instances;
     std::array<std::int32_t, 8> children{-1, -1, -1, -1, -1, -1, -1, -1};  ///< −1: none.
     Vec3f sphere_centre = Vec3f::Zero();  ///< Bounding sphere of everything in the subtree.
     float sphere_radius = 0.0f;
+    Eigen::AlignedBox3f bounds;  ///< Bounding box of everything in the subtree.
 
     Vec3f voxel_centre(const std::array<std::uint8_t, 3>& v, int grid) const {
         const float step = side / static_cast<float>(grid);

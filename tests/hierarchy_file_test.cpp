@@ -44,16 +44,25 @@ HierarchyNode make_node(std::array<float, 3> origin, float side, std::uint32_t f
     return n;
 }
 
-/// A root cube [0, 2)³ with children in octants 1 (+x) and 6 (+y, +z), five points with every
-/// channel, two triangles over four vertices, one kept in the root and one in the first child.
+/// A mesh object: a root cube [0, 2)³ with children in octants 1 (+x) and 6 (+y, +z), five
+/// points with every channel, two triangles over four vertices, one kept in the root and one
+/// in the first child; and the world, a group object of one node holding two instances of it.
 HierarchyData small_hierarchy() {
     HierarchyData d;
     d.grid = 4;
+    d.world_object = 1;
+    d.objects = {{0, 3, HierarchyObjectKind::Mesh, 0, 2, 0, 4, 0},
+                 {3, 1, HierarchyObjectKind::Group, 0, 0, 0, 0, 0}};
+    d.instances = {{{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0}, 0, {}},
+                   {{0, -2, 0, 5, 2, 0, 0, -1, 0, 0, 0.5f, 3}, 0, {}}};
+    d.scene_json = R"({"camera": {}})";
     HierarchyNode root = make_node({0, 0, 0}, 2, 0, 2, 0, 1, 0xffffffffu, 0);
     root.child_mask = (1u << 1) | (1u << 6);
     root.first_child = 1;
+    HierarchyNode world = make_node({-4, -4, -4}, 12, 5, 0, 2, 0, 0xffffffffu, 0);
+    world.instance_count = 2;
     d.nodes = {root, make_node({1, 0, 0}, 1, 2, 1, 1, 1, 0, 1),
-               make_node({0, 1, 1}, 1, 3, 2, 2, 0, 0, 1)};
+               make_node({0, 1, 1}, 1, 3, 2, 2, 0, 0, 1), world};
     for (std::uint8_t i = 0; i < 5; ++i) {
         const std::uint8_t k = static_cast<std::uint8_t>(i + 1);
         d.core.push_back(
@@ -99,7 +108,17 @@ HierarchyHeader header_of(const HierarchyData& d) {
     h.grid = static_cast<std::uint32_t>(d.grid);
     h.node_count = static_cast<std::uint32_t>(d.nodes.size());
     h.point_count = static_cast<std::uint32_t>(d.core.size());
+    h.object_count = static_cast<std::uint32_t>(d.objects.size());
+    h.instance_count = static_cast<std::uint32_t>(d.instances.size());
+    h.world_object = d.world_object;
     return h;
+}
+
+/// Adds `node` as the last node of the mesh object (the group's node moves up one).
+void insert_mesh_node(HierarchyData& d, const HierarchyNode& node) {
+    d.nodes.insert(d.nodes.begin() + 3, node);
+    ++d.objects[0].node_count;
+    ++d.objects[1].first_node;
 }
 
 template <class T>
@@ -116,6 +135,8 @@ void write_raw(const fs::path& path, const HierarchyData& d, const HierarchyHead
                std::uint32_t skip = 0) {
     SectionFileWriter w(kHierarchyFileVersion);
     add_raw(w, "HEAD", std::vector<HierarchyHeader>{head}, skip);
+    add_raw(w, "OBJS", d.objects, skip);
+    add_raw(w, "INST", d.instances, skip);
     add_raw(w, "NODE", d.nodes, skip);
     add_raw(w, "PCOR", d.core, skip);
     add_raw(w, "PDIF", d.diffuse, skip);
@@ -128,6 +149,9 @@ void write_raw(const fs::path& path, const HierarchyData& d, const HierarchyHead
     add_raw(w, "VTUV", d.vertex_uvs, skip, true);
     add_raw(w, "TRIS", d.triangles, skip);
     add_raw(w, "TMAT", d.triangle_materials, skip);
+    if (skip != section_tag("SCEN")) {
+        w.add(section_tag("SCEN"), std::as_bytes(std::span(d.scene_json)));
+    }
     if (skip != section_tag("BILD")) {
         w.add(section_tag("BILD"), std::as_bytes(std::span(d.build_json)));
     }
@@ -156,6 +180,9 @@ TEST(HierarchyFile, RoundTripsEveryRecordExactly) {
 
     const HierarchyFile f = HierarchyFile::open(path, 3);
     EXPECT_EQ(f.grid(), 4);
+    EXPECT_EQ(f.world_object(), 1u);
+    expect_same_records(f.objects(), d.objects, "objects");
+    expect_same_records(f.instances(), d.instances, "instances");
     expect_same_records(f.nodes(), d.nodes, "nodes");
     expect_same_records(f.core(), d.core, "core");
     expect_same_records(f.diffuse(), d.diffuse, "diffuse");
@@ -169,13 +196,20 @@ TEST(HierarchyFile, RoundTripsEveryRecordExactly) {
     expect_same_records(f.triangles(), d.triangles, "triangles");
     expect_same_records(f.triangle_materials(), d.triangle_materials, "materials");
     EXPECT_EQ(f.build_json(), d.build_json);
+    EXPECT_EQ(f.scene_json(), d.scene_json);
+    const Affine3f second = f.instances()[1].affine();
+    EXPECT_EQ(second * Vec3f(1, 2, 3), Vec3f(1, 1, 4.5f));
+    EXPECT_EQ(HierarchyInstance::pack(second), d.instances[1].transform);
 
     // The header record, read through the container directly.
     const auto head = f.sections().array<HierarchyHeader>(section_tag("HEAD"));
     ASSERT_EQ(head.size(), 1u);
     EXPECT_EQ(head[0].grid, 4u);
-    EXPECT_EQ(head[0].node_count, 3u);
+    EXPECT_EQ(head[0].node_count, 4u);
     EXPECT_EQ(head[0].point_count, 5u);
+    EXPECT_EQ(head[0].object_count, 2u);
+    EXPECT_EQ(head[0].instance_count, 2u);
+    EXPECT_EQ(head[0].world_object, 1u);
     for (const std::uint32_t r : head[0].reserved) {
         EXPECT_EQ(r, 0u);
     }
@@ -282,8 +316,8 @@ TEST(HierarchyFileReader, RefusesBadReferencesInChecksumValidFiles) {
          no_head, 0, "section 'NODE' record 1", "run past the 5 points"},
         {"triangle range past the end", [](HierarchyData& d) { d.nodes[1].triangle_count = 2; },
          no_head, 0, "section 'NODE' record 1", "run past the 2 entries of section 'NTRI'"},
-        {"child beyond the nodes", [](HierarchyData& d) { d.nodes[0].first_child = 2; }, no_head, 0,
-         "section 'NODE' record 0", "children [2, 2 + 2) run past the 3 nodes"},
+        {"child beyond the nodes", [](HierarchyData& d) { d.nodes[0].first_child = 3; }, no_head, 0,
+         "section 'NODE' record 0", "children [3, 3 + 2) run past the 4 nodes"},
         {"child before its parent",
          [](HierarchyData& d) {
              d.nodes[2].child_mask = 1;
@@ -300,16 +334,73 @@ TEST(HierarchyFileReader, RefusesBadReferencesInChecksumValidFiles) {
          "section 'NODE' record 2", "parent is 1, but node 0 lists it as a child"},
         {"orphan node",
          [](HierarchyData& d) {
-             d.nodes.push_back(make_node({1, 0, 0}, 0.5f, 0, 0, 0, 0, 1, 2));
+             insert_mesh_node(d, make_node({1, 0, 0}, 0.5f, 0, 0, 0, 0, 1, 2));
          },
-         no_head, 0, "section 'NODE' record 3", "parent 1 does not list it among its children"},
+         no_head, 0, "section 'NODE' record 3",
+         "parent 1 is not a node of object 0 that lists it among its children"},
         {"second root",
+         [](HierarchyData& d) {
+             insert_mesh_node(d, make_node({1, 0, 0}, 0.5f, 0, 0, 0, 0, 0xffffffffu, 0));
+         },
+         no_head, 0, "section 'NODE' record 3",
+         "has no parent, but only the first node of object 0 is its root"},
+        {"root with a parent", [](HierarchyData& d) { d.nodes[0].parent = 2; }, no_head, 0,
+         "section 'NODE' record 0", "root of object 0 with parent 2 and level 0"},
+        {"objects leave a gap", [](HierarchyData& d) { d.objects[1].first_node = 4; }, no_head, 0,
+         "section 'OBJS' record 1", "nodes [4, 4 + 1), expected a non-empty range starting at 3"},
+        {"objects leave nodes over",
          [](HierarchyData& d) {
              d.nodes.push_back(make_node({1, 0, 0}, 0.5f, 0, 0, 0, 0, 0xffffffffu, 0));
          },
-         no_head, 0, "section 'NODE' record 3", "has no parent, but only node 0 is a root"},
-        {"root with a parent", [](HierarchyData& d) { d.nodes[0].parent = 2; }, no_head, 0,
-         "section 'NODE' record 0", "the root's parent is 2, expected 0xffffffff"},
+         no_head, 0, "section 'OBJS'", "cover 4 of the 5 nodes"},
+        {"no objects",
+         [](HierarchyData& d) {
+             d.objects.clear();
+             d.world_object = 0;
+         },
+         no_head, 0, "section 'OBJS'", "no objects, expected at least one"},
+        {"unknown kind",
+         [](HierarchyData& d) { d.objects[1].kind = static_cast<HierarchyObjectKind>(7); }, no_head,
+         0, "section 'OBJS' record 1", "kind 7, expected 0 (mesh) or 1 (group)"},
+        {"group with triangles", [](HierarchyData& d) { d.objects[1].triangle_count = 1; }, no_head,
+         0, "section 'OBJS' record 1", "a group's triangle and vertex ranges"},
+        {"mesh triangles past the end", [](HierarchyData& d) { d.objects[0].triangle_count = 3; },
+         no_head, 0, "section 'OBJS' record 0", "run past the 2 triangles or 4 vertices"},
+        {"vertex of another object", [](HierarchyData& d) { d.objects[0].vertex_count = 3; },
+         no_head, 0, "section 'TRIS' record 1", "vertex 3 is not one of its object's"},
+        {"triangle of another object", [](HierarchyData& d) { d.objects[0].triangle_count = 1; },
+         no_head, 0, "section 'NODE' record 0", "keeps triangle 1, which is not one of object 0's"},
+        {"instances in a mesh node", [](HierarchyData& d) { d.nodes[1].instance_count = 1; },
+         no_head, 0, "section 'NODE' record 1", "1 instances in a node of mesh object 0"},
+        {"triangles in a group node",
+         [](HierarchyData& d) {
+             d.nodes[3].first_triangle = 0;
+             d.nodes[3].triangle_count = 1;
+         },
+         no_head, 0, "section 'NODE' record 3", "1 triangles in a node of group object 1"},
+        {"instances past the end", [](HierarchyData& d) { d.nodes[3].instance_count = 3; }, no_head,
+         0, "section 'NODE' record 3", "instances [0, 0 + 3) run past the 2 of section"},
+        {"instance of its own group", [](HierarchyData& d) { d.instances[1].object = 1; }, no_head,
+         0, "section 'INST' record 1",
+         "instance of object 1 in group object 1: an instance must refer to an object listed "
+         "before its group"},
+        {"singular transform", [](HierarchyData& d) { d.instances[1].transform[1] = 0; }, no_head,
+         0, "section 'INST' record 1", "transform with determinant 0"},
+        {"NaN transform",
+         [](HierarchyData& d) {
+             d.instances[0].transform[3] = std::numeric_limits<float>::quiet_NaN();
+         },
+         no_head, 0, "section 'INST' record 0", "expected finite, invertible values"},
+        {"instance reserved", [](HierarchyData& d) { d.instances[0].reserved[2] = 1; }, no_head, 0,
+         "section 'INST' record 0", "zero reserved fields"},
+        {"world beyond the objects", none, [](HierarchyHeader& h) { h.world_object = 2; }, 0,
+         "section 'HEAD'", "world object 2 does not exist (section 'OBJS' has 2)"},
+        {"header object count", none, [](HierarchyHeader& h) { h.object_count = 3; }, 0,
+         "section 'HEAD'",
+         "3 objects and 2 instances, but sections 'OBJS' and 'INST' have 2 and 2"},
+        {"missing objects", none, no_head, section_tag("OBJS"), "section 'OBJS'", "missing"},
+        {"missing instances", none, no_head, section_tag("INST"), "section 'INST'", "missing"},
+        {"missing scene", none, no_head, section_tag("SCEN"), "section 'SCEN'", "missing"},
         {"child level", [](HierarchyData& d) { d.nodes[1].level = 2; }, no_head, 0,
          "section 'NODE' record 1", "level 2, expected 1"},
         {"zero side", [](HierarchyData& d) { d.nodes[1].side = 0; }, no_head, 0,
@@ -344,17 +435,17 @@ TEST(HierarchyFileReader, RefusesBadReferencesInChecksumValidFiles) {
          "grid resolution 0, expected 1 to 256"},
         {"header grid 257", none, [](HierarchyHeader& h) { h.grid = 257; }, 0, "section 'HEAD'",
          "grid resolution 257, expected 1 to 256"},
-        {"header node count", none, [](HierarchyHeader& h) { h.node_count = 4; }, 0,
-         "section 'HEAD'", "4 nodes, but section 'NODE' has 3"},
+        {"header node count", none, [](HierarchyHeader& h) { h.node_count = 3; }, 0,
+         "section 'HEAD'", "3 nodes, but section 'NODE' has 4"},
         {"header point count", none, [](HierarchyHeader& h) { h.point_count = 4; }, 0,
          "section 'HEAD'", "4 points, but section 'PCOR' has 5"},
-        {"header reserved", none, [](HierarchyHeader& h) { h.reserved[12] = 1; }, 0,
+        {"header reserved", none, [](HierarchyHeader& h) { h.reserved[9] = 1; }, 0,
          "section 'HEAD'", "reserved fields are not zero"},
     };
 
     // The undamaged hand-written file is accepted, so each refusal is due to its damage.
     write_raw(dir.path() / "good.mrh", small_hierarchy(), header_of(small_hierarchy()));
-    EXPECT_EQ(HierarchyFile::open(dir.path() / "good.mrh").nodes().size(), 3u);
+    EXPECT_EQ(HierarchyFile::open(dir.path() / "good.mrh").nodes().size(), 4u);
 
     for (const ReaderCase& c : cases) {
         HierarchyData d = small_hierarchy();

@@ -1,0 +1,66 @@
+#pragma once
+// The point hierarchy of a whole scene, instanced (the paper's Figure 7 scene is 110 k unique
+// triangles instanced to 8.7 M): one point octree per unique mesh in its object space
+// (preprocess/point_octree.h), and per group an instance tree in the group's space whose nodes
+// hold the group's instances at the leaves and, wherever a node holds more than one instance
+// below it, points that approximate all of them.
+//
+// A group node's points are prefiltered like a mesh node's (preprocess/surface_prefilter.h),
+// from the finer representations below it, mapped into the group's space: the points of the
+// first nodes of each instance's trees whose spacing is at most half this node's (with the
+// triangles kept above them, sampled densely). With that spacing every surface point is within
+// the finer voxel diagonal of a finer representative, and that one within half this node's
+// diagonal of this node's: within this node's diagonal, the guarantee of the mesh octrees.
+// Their attributes are already prefiltered over at most half a voxel, so the node's filter is
+// √(1 + ¼) ≈ 1.12 voxels wide at most instead of one.
+
+#include "common/math.h"
+#include "common/mesh.h"
+#include "common/scene.h"
+#include "preprocess/point_octree.h"
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace mrt {
+
+class Progress;
+class TextureSampler;
+
+/// An object placed in a group's space.
+struct SceneInstance {
+    std::uint32_t object = 0;                   ///< Into SceneHierarchy::objects.
+    Affine3f transform = Affine3f::Identity();  ///< Object space → group space.
+};
+
+/// A unique mesh with its point octree, or a group with its instance tree.
+struct SceneObject {
+    enum class Kind : std::uint8_t { Mesh, Group };
+    Kind kind = Kind::Mesh;
+    const Mesh* mesh = nullptr;  ///< Mesh objects: the geometry (the scene's, or the flattened).
+    /// Mesh: its point octree. Group: the instance tree (nodes hold points and instances).
+    PointOctree tree;
+};
+
+struct SceneHierarchy {
+    PointOctreeOptions options;
+    std::vector<SceneObject> objects;  ///< Every object after the objects it instances.
+    std::vector<SceneInstance> instances;
+    std::uint32_t world = 0;                ///< The object that is the scene.
+    std::unique_ptr<const Mesh> flattened;  ///< The world's one mesh in a flattened build.
+};
+
+/// Builds the hierarchy of `scene`'s world. With `flatten`, one octree over every triangle in
+/// world space instead (instances expanded). `textures` may be null when nothing is textured.
+/// Deterministic for the options' seed whatever the number of threads; `progress` advances by
+/// one per triangle coming to rest in a mesh octree (its total: the unique triangle count, or
+/// the instanced one when flattening).
+SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* textures,
+                                     const PointOctreeOptions& options, bool flatten,
+                                     Progress* progress = nullptr);
+
+/// Most instances a leaf of an instance tree holds.
+inline constexpr std::size_t kInstancesPerLeaf = 4;
+
+}  // namespace mrt

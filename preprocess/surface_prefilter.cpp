@@ -1,0 +1,165 @@
+#include "preprocess/surface_prefilter.h"
+
+#include "common/texture.h"
+#include "preprocess/normal_gradient.h"
+#include "preprocess/triangle_sampling.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace mrt {
+
+namespace {
+
+/// Prefiltering neighbourhood: samples within this many voxels (σ) of a point's centre.
+constexpr int kGatherRadius = 2;
+
+}  // namespace
+
+std::uint32_t voxel_index(const OctreeNode& node, int grid, const Vec3f& p) {
+    const Vec3f g = (p - node.origin) * (static_cast<float>(grid) / node.side);
+    std::uint32_t index = 0;
+    for (int axis = 2; axis >= 0; --axis) {
+        const int i = std::clamp(static_cast<int>(std::floor(g[axis])), 0, grid - 1);
+        index = index * static_cast<std::uint32_t>(grid) + static_cast<std::uint32_t>(i);
+    }
+    return index;  // x fastest
+}
+
+void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
+                      const TextureSampler* textures, std::uint32_t t, std::uint64_t key,
+                      const Affine3f* to_node, std::span<SurfaceSample> out) {
+    const auto& tri = mesh.triangles[t];
+    std::array<Vec3f, 3> p{mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
+    std::array<Vec3f, 3> n{mesh.normals[tri[0]], mesh.normals[tri[1]], mesh.normals[tri[2]]};
+    if (to_node != nullptr) {
+        const Mat3f normal_matrix = to_node->linear().inverse().transpose();
+        for (int i = 0; i < 3; ++i) {
+            p[i] = *to_node * p[i];
+            n[i] = normal_matrix * n[i];
+        }
+    }
+    const float area = 0.5f * (p[1] - p[0]).cross(p[2] - p[0]).norm();
+    const float share = area / static_cast<float>(std::max<std::size_t>(out.size(), 1));
+    const Material& material = materials[mesh.materials[t]];
+    const bool textured = textures != nullptr && material.texture >= 0 && mesh.has_uvs();
+    const double log_phong = std::log(std::max(material.phong_exponent, 1e-3f));
+    for (std::size_t j = 0; j < out.size(); ++j) {
+        const Vec2f b = triangle_sample(static_cast<std::uint32_t>(j), key);
+        const float b0 = 1.0f - b.x() - b.y();
+        SurfaceSample& s = out[j];
+        s.position = b0 * p[0] + b.x() * p[1] + b.y() * p[2];
+        const Vec3f n3 = b0 * n[0] + b.x() * n[1] + b.y() * n[2];
+        s.normal = n3.squaredNorm() > 0.0f ? n3.normalized() : Vec3f::UnitZ();
+        if (textured) {
+            const Vec2f uv =
+                b0 * mesh.uvs[tri[0]] + b.x() * mesh.uvs[tri[1]] + b.y() * mesh.uvs[tri[2]];
+            s.diffuse = textures->diffuse(material, uv);
+        } else {
+            s.diffuse = material.diffuse;
+        }
+        s.specular = material.specular;
+        s.log_phong = log_phong;
+        s.reflectivity = material.reflectivity;
+        s.transparency = material.transparency;
+        s.roughness = material.roughness;
+        s.ior = material.ior;
+        s.area = share;
+    }
+}
+
+std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
+                                          const std::vector<SurfaceSample>& samples,
+                                          std::vector<std::uint32_t> chosen) {
+    std::sort(chosen.begin(), chosen.end());
+    chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
+
+    // Samples ordered by voxel, for the neighbourhood gathers.
+    std::vector<std::uint32_t> order(samples.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return samples[a].voxel < samples[b].voxel;
+    });
+    std::vector<std::uint32_t> sorted_voxels(order.size());
+    for (std::size_t i = 0; i < order.size(); ++i) {
+        sorted_voxels[i] = samples[order[i]].voxel;
+    }
+
+    std::vector<OctreePoint> points(chosen.size());
+    const int k = grid;
+    const float sigma = node.side / static_cast<float>(grid);
+    const float inverse_two_sigma_squared = 0.5f / (sigma * sigma);
+    const float cut = (static_cast<float>(kGatherRadius) + 0.5f) * sigma;
+    // A plane through the point's centre gives its samples this weight: the Gaussian's
+    // integral over the disc of radius `cut` it gathers from.
+    const float gathered = 1.0f - std::exp(-0.5f * (cut / sigma) * (cut / sigma));
+    const float plane_weight = 2.0f * kPi * sigma * sigma * gathered;
+    tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t r) {
+        const std::uint32_t v = chosen[r];
+        const int vx = static_cast<int>(v % static_cast<std::uint32_t>(k));
+        const int vy =
+            static_cast<int>((v / static_cast<std::uint32_t>(k)) % static_cast<std::uint32_t>(k));
+        const int vz = static_cast<int>(v / static_cast<std::uint32_t>(k * k));
+        OctreePoint& point = points[r];
+        point.voxel = {static_cast<std::uint8_t>(vx), static_cast<std::uint8_t>(vy),
+                       static_cast<std::uint8_t>(vz)};
+        const Vec3f centre = node.voxel_centre(point.voxel, k);
+        double weight_sum = 0.0;
+        Eigen::Vector3d diffuse = Eigen::Vector3d::Zero(), specular = Eigen::Vector3d::Zero();
+        double log_phong = 0.0, reflectivity = 0.0, transparency = 0.0, roughness = 0.0, ior = 0.0;
+        std::vector<NormalSample> neighbours;
+        for (int dz = -kGatherRadius; dz <= kGatherRadius; ++dz) {
+            for (int dy = -kGatherRadius; dy <= kGatherRadius; ++dy) {
+                for (int dx = -kGatherRadius; dx <= kGatherRadius; ++dx) {
+                    const int x = vx + dx, y = vy + dy, z = vz + dz;
+                    if (x < 0 || y < 0 || z < 0 || x >= k || y >= k || z >= k) {
+                        continue;
+                    }
+                    const auto id = static_cast<std::uint32_t>((z * k + y) * k + x);
+                    const auto range =
+                        std::equal_range(sorted_voxels.begin(), sorted_voxels.end(), id);
+                    for (auto it = range.first; it != range.second; ++it) {
+                        const SurfaceSample& s =
+                            samples[order[static_cast<std::size_t>(it - sorted_voxels.begin())]];
+                        const float d2 = (s.position - centre).squaredNorm();
+                        if (d2 > cut * cut) {
+                            continue;
+                        }
+                        const double w = std::exp(-d2 * inverse_two_sigma_squared) * s.area;
+                        weight_sum += w;
+                        neighbours.push_back({s.position, s.normal, static_cast<float>(w)});
+                        diffuse += w * s.diffuse.matrix().cast<double>();
+                        specular += w * s.specular.matrix().cast<double>();
+                        log_phong += w * s.log_phong;
+                        reflectivity += w * s.reflectivity;
+                        transparency += w * s.transparency;
+                        roughness += w * s.roughness;
+                        ior += w * s.ior;
+                    }
+                }
+            }
+        }
+        if (!(weight_sum > 0.0)) {
+            return;  // only a voxel whose own samples all have zero area: coverage stays 0
+        }
+        const double inv = 1.0 / weight_sum;
+        const NormalGradientFit fit = fit_normal_gradient(centre, neighbours);
+        point.normal = fit.normal;
+        point.gradient = fit.gradient;
+        point.gradient_fitted = fit.fitted;
+        point.diffuse = (diffuse * inv).cast<float>().array();
+        point.specular = (specular * inv).cast<float>().array();
+        point.phong_exponent = static_cast<float>(std::exp(log_phong * inv));
+        point.reflectivity = static_cast<float>(reflectivity * inv);
+        point.transparency = static_cast<float>(transparency * inv);
+        point.roughness = static_cast<float>(roughness * inv);
+        point.ior = static_cast<float>(ior * inv);
+        point.coverage = static_cast<float>(weight_sum / plane_weight);
+    });
+    return points;
+}
+
+}  // namespace mrt

@@ -1,0 +1,53 @@
+#pragma once
+// The prefilter of Wand & Straßer §3.2, shared by the mesh octrees and the instance trees: dense
+// samples of a surface, each carrying the material it stands for, averaged with a Gaussian of
+// one voxel side (σ, cut at 2.5σ) around the centre of every chosen voxel of a node's k³ grid.
+// The normal gradient is fitted to the samples' normals (preprocess/normal_gradient.h).
+
+#include "common/math.h"
+#include "preprocess/point_octree.h"
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace mrt {
+
+class TextureSampler;
+
+/// One dense sample of a surface with the attributes the points average (node space).
+struct SurfaceSample {
+    Vec3f position = Vec3f::Zero();
+    Vec3f normal = Vec3f::UnitZ();  ///< Unit shading normal.
+    Rgb diffuse = Rgb::Zero();      ///< Albedo times texture at the sample.
+    Rgb specular = Rgb::Zero();
+    /// log of the Phong exponent: exponents are averaged geometrically, since highlights of
+    /// exponent 10 and 1000 blend to something like 100, not 505.
+    double log_phong = 0.0;
+    float reflectivity = 0.0f;
+    float transparency = 0.0f;
+    float roughness = 0.0f;
+    float ior = 1.0f;
+    float area = 0.0f;        ///< Surface area the sample stands for.
+    std::uint32_t voxel = 0;  ///< Linear voxel index (x fastest) in the node's grid.
+};
+
+/// Linear index (x fastest) of the voxel of `node`'s grid that holds p (clamped to the grid).
+std::uint32_t voxel_index(const OctreeNode& node, int grid, const Vec3f& p);
+
+/// Fills `out` with the first out.size() samples of the sequence `key` on triangle t of `mesh`,
+/// each standing for an equal share of its area, placed by `to_node` (object → node space;
+/// null is the identity). `textures` may be null when no material is textured. Voxels are
+/// left for the caller.
+void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
+                      const TextureSampler* textures, std::uint32_t t, std::uint64_t key,
+                      const Affine3f* to_node, std::span<SurfaceSample> out);
+
+/// The node's points: one at the centre of every voxel in `chosen` (linear indices, repeats
+/// allowed), its attributes the Gaussian-weighted averages of `samples` (whose `voxel` fields
+/// must be set) and its coverage the gathered area relative to a plane through the centre.
+std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
+                                          const std::vector<SurfaceSample>& samples,
+                                          std::vector<std::uint32_t> chosen);
+
+}  // namespace mrt
