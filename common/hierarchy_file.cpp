@@ -300,6 +300,17 @@ void check_objects(const std::filesystem::path& file, const HierarchyView& a) {
     }
 }
 
+void check_materials(const std::filesystem::path& file, const HierarchyView& a,
+                     std::uint32_t material_count) {
+    for (std::size_t i = 0; i < a.triangle_materials.size(); ++i) {
+        if (a.triangle_materials[i] >= material_count) {
+            throw Error(file, where(kMaterials, i),
+                        fmt::format("material {} does not exist (the scene has {})",
+                                    a.triangle_materials[i], material_count));
+        }
+    }
+}
+
 /// Every cross-reference of the arrays (lengths were checked before).
 void check_references(const std::filesystem::path& file, const HierarchyView& a,
                       std::optional<std::uint32_t> material_count) {
@@ -339,13 +350,7 @@ void check_references(const std::filesystem::path& file, const HierarchyView& a,
     }
     check_objects(file, a);
     if (material_count) {
-        for (std::size_t i = 0; i < a.triangle_materials.size(); ++i) {
-            if (a.triangle_materials[i] >= *material_count) {
-                throw Error(file, where(kMaterials, i),
-                            fmt::format("material {} does not exist (the scene has {})",
-                                        a.triangle_materials[i], *material_count));
-            }
-        }
+        check_materials(file, a, *material_count);
     }
 }
 
@@ -430,6 +435,10 @@ std::array<float, 12> HierarchyInstance::pack(const Affine3f& t) {
         }
     }
     return out;
+}
+
+void HierarchyFile::check_materials(std::uint32_t material_count) const {
+    mrt::check_materials(m_file.path(), m_view, material_count);
 }
 
 HierarchyFile::HierarchyFile(SectionFile file) : m_file(std::move(file)) {}

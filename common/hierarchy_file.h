@@ -226,6 +226,10 @@ class HierarchyFile {
     std::span<const std::array<float, 2>> vertex_uvs() const { return m_view.vertex_uvs; }
     std::span<const std::array<std::uint32_t, 3>> triangles() const { return m_view.triangles; }
     std::span<const std::uint32_t> triangle_materials() const { return m_view.triangle_materials; }
+    /// Throws mrt::Error (as open() with a material count would) unless every triangle's
+    /// material is below `material_count`: for readers that learn the count from the file's
+    /// own scene record.
+    void check_materials(std::uint32_t material_count) const;
     const std::string& scene_json() const { return m_scene_json; }
     const std::string& build_json() const { return m_build_json; }
     const SectionFile& sections() const { return m_file; }

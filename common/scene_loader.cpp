@@ -2,9 +2,11 @@
 
 #include "common/data_path.h"
 #include "common/error.h"
+#include "common/hierarchy_scene.h"
 #include "common/mesh_io.h"
 #include "common/procedural.h"
 #include "common/scene_json.h"
+#include "common/section_file.h"
 
 #include <fmt/format.h>
 
@@ -733,6 +735,9 @@ Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& opti
     std::error_code error;
     if (std::filesystem::is_directory(file, error)) {
         throw Error(file, "", "is a directory, expected a scene file");
+    }
+    if (starts_like_section_file(file)) {
+        return scene_from_hierarchy(HierarchyFile::open(file), file);
     }
     std::ifstream in(file, std::ios::binary);
     if (!in) {

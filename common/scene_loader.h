@@ -16,7 +16,8 @@ struct SceneLoadOptions {
     std::function<void(const std::string&)> warn;
 };
 
-/// Loads a scene file. Throws mrt::Error on any problem.
+/// Loads a scene file, or the scene a hierarchy file (.mrh, recognised by its magic) stands for
+/// (common/hierarchy_scene.h). Throws mrt::Error on any problem.
 Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& options = {});
 
 /// Parses scene JSON text as if it were the file `file` (paths resolve relative to its

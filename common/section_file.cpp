@@ -13,6 +13,7 @@
 #include <array>
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <limits>
 
 namespace mrt {
@@ -264,6 +265,13 @@ void MappedFile::unmap() noexcept {
 }
 
 // ---------------------------------------------------------------------------------- reader
+
+bool starts_like_section_file(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::array<char, 4> start{};
+    return in.read(start.data(), start.size()) &&
+           std::memcmp(start.data(), kMagic.data(), start.size()) == 0;
+}
 
 namespace {
 

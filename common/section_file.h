@@ -152,6 +152,11 @@ class MappedFile {
 };
 
 /// A validated, memory-mapped section file. Section data stays valid while the object lives.
+/// Whether the file at `path` begins like a section file (the first four bytes of the magic,
+/// so that one whose magic was damaged in transfer still reaches SectionFile::open, which says
+/// so); false when it cannot be read.
+bool starts_like_section_file(const std::filesystem::path& path);
+
 class SectionFile {
   public:
     /// Maps `file` and validates it completely (magic, version, header checksum, sizes,

@@ -100,10 +100,10 @@ void check_method_options(const CLI::App& app, const Arguments& args) {
 int run(const Arguments& args) {
     mrt::check_image_output(args.output);
     const auto load_start = Clock::now();
-    if (args.scene.extension() != ".json") {
+    if (args.scene.extension() != ".json" && args.scene.extension() != ".mrh") {
         throw mrt::Error(args.scene, "",
                          "unsupported scene file type \"" + args.scene.extension().string() +
-                             "\" (expected a .json scene file)");
+                             "\" (expected a .json scene file or a .mrh hierarchy file)");
     }
     mrt::SceneLoadOptions load_options;
     load_options.warn = [&](const std::string& message) {
@@ -192,7 +192,7 @@ int main(int argc, char** argv) {
         "distributed ray tracer",
         "mrt-trace"};
     Arguments args;
-    app.add_option("scene", args.scene, "Scene file (.json)")->required();
+    app.add_option("scene", args.scene, "Scene file (.json) or hierarchy file (.mrh)")->required();
     app.add_option("-o,--output", args.output, "Output image (.exr linear, .png/.jpg sRGB)")
         ->required();
     app.add_option("--method", args.method,
