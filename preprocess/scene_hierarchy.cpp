@@ -140,8 +140,9 @@ class GroupBuilder {
                  const TextureSampler* textures)
         : m_hierarchy(hierarchy), m_collector(hierarchy, materials, textures) {}
 
-    /// The instance tree over `items` (instances of objects built before).
-    PointOctree build(std::vector<std::uint32_t> items) const {
+    /// The nodes of the instance tree over `items` (instances of objects built before),
+    /// without points yet.
+    PointOctree instance_tree(std::vector<std::uint32_t> items) const {
         std::vector<Eigen::AlignedBox3f> boxes(m_hierarchy.instances.size());
         for (const std::uint32_t i : items) {
             const SceneInstance& instance = m_hierarchy.instances[i];
@@ -151,8 +152,52 @@ class GroupBuilder {
         PointOctree tree;
         tree.options = m_hierarchy.options;
         tree.nodes = breadth_first(structure(std::move(items), boxes, 0));
-        add_points(tree);
         return tree;
+    }
+
+    /// Points for every node of object `o`'s tree (`tree`, the object's own, being filled in)
+    /// with more than one instance below it, deepest level first (a node's points read its
+    /// children's), the nodes of one level in parallel; then the bounds.
+    void add_points(std::uint32_t o, PointOctree& tree) const {
+        const std::size_t count = tree.nodes.size();
+        std::vector<std::size_t> below(count, 0);
+        for (std::size_t n = count; n-- > 0;) {
+            below[n] = tree.nodes[n].instances.size();
+            for (const std::int32_t c : tree.nodes[n].children) {
+                if (c >= 0) {
+                    below[n] += below[static_cast<std::size_t>(c)];
+                }
+            }
+        }
+        const int k = m_hierarchy.options.grid;
+        std::size_t end = count;
+        while (end > 0) {
+            const int level = tree.nodes[end - 1].level;
+            std::size_t begin = end;
+            while (begin > 0 && tree.nodes[begin - 1].level == level) {
+                --begin;
+            }
+            tbb::parallel_for(begin, end, [&](std::size_t n) {
+                OctreeNode& node = tree.nodes[n];
+                if (below[n] > 1) {
+                    node.points = points_of(o, node);
+                }
+                const Vec3f half_voxel = Vec3f::Constant(0.5f * node.side / static_cast<float>(k));
+                for (const OctreePoint& p : node.points) {
+                    const Vec3f c = node.voxel_centre(p.voxel, k);
+                    node.bounds.extend(c - half_voxel);
+                    node.bounds.extend(c + half_voxel);
+                }
+                for (const std::int32_t c : node.children) {
+                    if (c >= 0) {
+                        node.bounds.extend(tree.nodes[static_cast<std::size_t>(c)].bounds);
+                    }
+                }
+                node.sphere_centre = node.bounds.center();
+                node.sphere_radius = 0.5f * node.bounds.sizes().norm();
+            });
+            end = begin;
+        }
     }
 
   private:
@@ -206,72 +251,19 @@ class GroupBuilder {
         return result;
     }
 
-    /// Points for every node with more than one instance below it, deepest level first (a
-    /// node's points read its children's), the nodes of one level in parallel.
-    void add_points(PointOctree& tree) const {
-        const std::size_t count = tree.nodes.size();
-        std::vector<std::size_t> below(count, 0);
-        for (std::size_t n = count; n-- > 0;) {
-            below[n] = tree.nodes[n].instances.size();
-            for (const std::int32_t c : tree.nodes[n].children) {
-                if (c >= 0) {
-                    below[n] += below[static_cast<std::size_t>(c)];
-                }
-            }
-        }
-        std::size_t end = count;
-        while (end > 0) {
-            const int level = tree.nodes[end - 1].level;
-            std::size_t begin = end;
-            while (begin > 0 && tree.nodes[begin - 1].level == level) {
-                --begin;
-            }
-            tbb::parallel_for(begin, end, [&](std::size_t n) {
-                OctreeNode& node = tree.nodes[n];
-                if (below[n] > 1) {
-                    node.points = points_of(tree, node);
-                }
-                const float half_voxel =
-                    0.5f * node.side / static_cast<float>(m_hierarchy.options.grid);
-                for (const OctreePoint& p : node.points) {
-                    const Vec3f c = node.voxel_centre(p.voxel, m_hierarchy.options.grid);
-                    node.bounds.extend(c - Vec3f::Constant(half_voxel));
-                    node.bounds.extend(c + Vec3f::Constant(half_voxel));
-                }
-                for (const std::int32_t c : node.children) {
-                    if (c >= 0) {
-                        node.bounds.extend(tree.nodes[static_cast<std::size_t>(c)].bounds);
-                    }
-                }
-                node.sphere_centre = node.bounds.center();
-                node.sphere_radius = 0.5f * node.bounds.sizes().norm();
-            });
-            end = begin;
-        }
-    }
-
-    std::vector<OctreePoint> points_of(const PointOctree& tree, const OctreeNode& node) const {
+    /// A node's points, from everything below it at no more than half its spacing.
+    std::vector<OctreePoint> points_of(std::uint32_t o, const OctreeNode& node) const {
         const int k = m_hierarchy.options.grid;
         const float spacing = 0.5f * node.side / static_cast<float>(k);
         std::vector<SurfaceSample> samples;
-        // This tree is not among the hierarchy's objects yet: its own finer nodes by hand.
-        std::vector<const OctreeNode*> stack{&node};
-        while (!stack.empty()) {
-            const OctreeNode* n = stack.back();
-            stack.pop_back();
-            if (n != &node && !n->points.empty() && n->side / static_cast<float>(k) <= spacing) {
-                append_point_samples(*n, k, Affine3f::Identity(), samples);
-                continue;
+        for (const std::int32_t c : node.children) {
+            if (c >= 0) {
+                m_collector.node(o, static_cast<std::size_t>(c), Affine3f::Identity(), 1.0f,
+                                 spacing, samples);
             }
-            for (const std::uint32_t i : n->instances) {
-                m_collector.object_of(m_hierarchy.instances[i], Affine3f::Identity(), spacing,
-                                      samples);
-            }
-            for (const std::int32_t c : n->children) {
-                if (c >= 0) {
-                    stack.push_back(&tree.nodes[static_cast<std::size_t>(c)]);
-                }
-            }
+        }
+        for (const std::uint32_t i : node.instances) {
+            m_collector.object_of(m_hierarchy.instances[i], Affine3f::Identity(), spacing, samples);
         }
         std::vector<std::uint32_t> chosen;
         chosen.reserve(samples.size());
@@ -377,7 +369,7 @@ SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* t
         const std::uint32_t first = items.front();
         SceneObject object;
         object.kind = SceneObject::Kind::Group;
-        object.tree = builder.build(std::move(items));
+        object.tree = builder.instance_tree(std::move(items));
         // Renumber the group's instances in node order, so each node's are consecutive (the
         // file stores a range per node); nothing refers to them by number yet.
         const std::vector<SceneInstance> built(h.instances.begin() + first, h.instances.end());
@@ -388,8 +380,11 @@ SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* t
                 i = next++;
             }
         }
-        group_object[g] = static_cast<std::uint32_t>(h.objects.size());
+        const auto o = static_cast<std::uint32_t>(h.objects.size());
+        group_object[g] = o;
         h.objects.push_back(std::move(object));
+        // The collector reads the finished levels of this tree through the hierarchy.
+        builder.add_points(o, h.objects[o].tree);
     }
     if (!group_object[scene.root]) {
         throw Error(scene.file, "", "the scene has no triangles to build a hierarchy of");
