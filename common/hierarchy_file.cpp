@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <bit>
 #include <cmath>
 #include <limits>
@@ -154,6 +155,23 @@ void check_objects(const std::filesystem::path& file, const HierarchyView& a) {
                                 a.world_object, tag_name(kObjects), a.objects.size()));
     }
     std::uint64_t next_node = 0;
+    // Each node's points, kept triangles and instances follow the previous node's, so every
+    // record is held by exactly one node (none drawn twice, none left out).
+    std::array<std::uint64_t, 3> next{0, 0, 0};
+    const auto follows = [&](std::size_t i, std::size_t which, std::uint64_t first,
+                             std::uint64_t count) {
+        static constexpr std::array<const char*, 3> kWhat{"points", "kept triangles", "instances"};
+        if (count == 0) {
+            return;
+        }
+        if (first != next[which]) {
+            throw Error(file, where(kNode, i),
+                        fmt::format("{} start at {}, expected {} (each node's follow the previous "
+                                    "node's)",
+                                    kWhat[which], first, next[which]));
+        }
+        next[which] += count;
+    };
     for (std::size_t o = 0; o < a.objects.size(); ++o) {
         const HierarchyObject& object = a.objects[o];
         const std::string at = where(kObjects, o);
@@ -253,6 +271,8 @@ void check_objects(const std::filesystem::path& file, const HierarchyView& a) {
                                                 t, o));
                     }
                 }
+                follows(i, 0, n.first_point, n.point_count);
+                follows(i, 1, n.first_triangle, n.triangle_count);
                 continue;
             }
             if (n.triangle_count != 0) {
@@ -276,12 +296,25 @@ void check_objects(const std::filesystem::path& file, const HierarchyView& a) {
                                             child, o));
                 }
             }
+            follows(i, 0, n.first_point, n.point_count);
+            follows(i, 2, n.first_instance, n.instance_count);
         }
     }
     if (next_node != a.nodes.size()) {
         throw Error(file, where(kObjects),
                     fmt::format("the objects cover {} of the {} nodes, expected all", next_node,
                                 a.nodes.size()));
+    }
+    const std::array<std::pair<std::uint32_t, std::size_t>, 3> held{
+        {{kCore, a.core.size()},
+         {kNodeTriangles, a.node_triangles.size()},
+         {kInstances, a.instances.size()}}};
+    for (std::size_t which = 0; which < 3; ++which) {
+        if (next[which] != held[which].second) {
+            throw Error(file, where(held[which].first),
+                        fmt::format("nodes hold {} of its {} records, expected all", next[which],
+                                    held[which].second));
+        }
     }
     for (std::size_t i = 0; i < a.instances.size(); ++i) {
         const HierarchyInstance& instance = a.instances[i];
