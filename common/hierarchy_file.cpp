@@ -16,6 +16,7 @@ namespace {
 constexpr std::uint32_t kHead = section_tag("HEAD");
 constexpr std::uint32_t kNode = section_tag("NODE");
 constexpr std::uint32_t kCore = section_tag("PCOR");
+constexpr std::uint32_t kOffset = section_tag("POFS");
 constexpr std::uint32_t kDiffuse = section_tag("PDIF");
 constexpr std::uint32_t kSpecular = section_tag("PSPC");
 constexpr std::uint32_t kMirror = section_tag("PMIR");
@@ -60,6 +61,7 @@ void check_length(const std::filesystem::path& file, std::uint32_t tag, std::siz
 
 void check_lengths(const std::filesystem::path& file, const HierarchyView& a) {
     const std::size_t points = a.core.size();
+    check_length(file, kOffset, a.offset.size(), points, "point", false);
     check_length(file, kDiffuse, a.diffuse.size(), points, "point", false);
     check_length(file, kSpecular, a.specular.size(), points, "point", true);
     check_length(file, kMirror, a.mirror.size(), points, "point", true);
@@ -435,6 +437,7 @@ void write_hierarchy_file(const std::filesystem::path& path, const HierarchyData
     writer.add_array<HierarchyInstance>(kInstances, data.instances);
     writer.add_array<HierarchyNode>(kNode, data.nodes);
     writer.add_array<PointCore>(kCore, data.core);
+    writer.add_array<PointOffset>(kOffset, data.offset);
     writer.add_array<PointDiffuse>(kDiffuse, data.diffuse);
     add_if_present(writer, kSpecular, data.specular);
     add_if_present(writer, kMirror, data.mirror);
@@ -504,6 +507,7 @@ HierarchyFile HierarchyFile::open(const std::filesystem::path& path,
     a.instances = f.array<HierarchyInstance>(kInstances);
     a.nodes = f.array<HierarchyNode>(kNode);
     a.core = f.array<PointCore>(kCore);
+    a.offset = f.array<PointOffset>(kOffset);
     a.diffuse = f.array<PointDiffuse>(kDiffuse);
     a.specular = optional_array<PointSpecular>(f, kSpecular);
     a.mirror = optional_array<PointMirror>(f, kMirror);

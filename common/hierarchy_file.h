@@ -6,6 +6,7 @@
 //
 //   'HEAD' always         grid resolution and counts       (HierarchyHeader, 64 bytes)
 //   'PCOR' always         voxel, coverage, normal          (PointCore, 8 bytes)
+//   'POFS' always         surface offset along the normal  (PointOffset, 1 byte)
 //   'PDIF' always         diffuse colour                   (PointDiffuse, 4 bytes)
 //   'PSPC' any specular   specular colour, Phong exponent  (PointSpecular, 4 bytes)
 //   'PMIR' any mirror     reflectivity, roughness, normal gradient, tangent angle
@@ -111,11 +112,20 @@ struct HierarchyInstance {
 static_assert(sizeof(HierarchyInstance) == 64);
 
 struct PointCore {
-    VoxelCode voxel;        ///< Voxel of the node's grid; the point sits at its centre.
-    std::uint8_t coverage;  ///< Samples' weight relative to a plane's, encode_unit8(min(1, c/2)).
+    VoxelCode voxel;  ///< Voxel of the node's grid; the point sits at its centre.
+    /// Area the point stands for over the voxel face (OctreePoint::coverage, c), stored as
+    /// encode_unit8(min(1, c/2)).
+    std::uint8_t coverage;
     NormalCode normal;
 };
 static_assert(sizeof(PointCore) == 8);
+
+struct PointOffset {
+    /// encode_offset8 of OctreePoint::offset: the surface is at voxel centre + decode·voxel
+    /// side·normal (within ±1/254 of a voxel side).
+    std::int8_t along_normal;
+};
+static_assert(sizeof(PointOffset) == 1);
 
 struct PointDiffuse {
     std::array<std::uint8_t, 3> rgb;  ///< encode_rgb8 of the linear albedo.
@@ -152,6 +162,7 @@ struct HierarchyView {
     std::span<const HierarchyInstance> instances;
     std::span<const HierarchyNode> nodes;
     std::span<const PointCore> core;
+    std::span<const PointOffset> offset;
     std::span<const PointDiffuse> diffuse;
     std::span<const PointSpecular> specular;      ///< May be empty.
     std::span<const PointMirror> mirror;          ///< May be empty.
@@ -173,6 +184,7 @@ struct HierarchyData {
     std::vector<HierarchyInstance> instances;
     std::vector<HierarchyNode> nodes;
     std::vector<PointCore> core;
+    std::vector<PointOffset> offset;
     std::vector<PointDiffuse> diffuse;
     std::vector<PointSpecular> specular;
     std::vector<PointMirror> mirror;
@@ -187,10 +199,23 @@ struct HierarchyData {
     std::string build_json = "{}";  ///< Build parameters.
 
     HierarchyView view() const {
-        return {grid,           world_object, objects,        instances,
-                nodes,          core,         diffuse,        specular,
-                mirror,         refraction,   node_triangles, vertex_positions,
-                vertex_normals, vertex_uvs,   triangles,      triangle_materials};
+        return {grid,
+                world_object,
+                objects,
+                instances,
+                nodes,
+                core,
+                offset,
+                diffuse,
+                specular,
+                mirror,
+                refraction,
+                node_triangles,
+                vertex_positions,
+                vertex_normals,
+                vertex_uvs,
+                triangles,
+                triangle_materials};
     }
 };
 
@@ -214,6 +239,7 @@ class HierarchyFile {
     std::span<const HierarchyInstance> instances() const { return m_view.instances; }
     std::span<const HierarchyNode> nodes() const { return m_view.nodes; }
     std::span<const PointCore> core() const { return m_view.core; }
+    std::span<const PointOffset> offset() const { return m_view.offset; }
     std::span<const PointDiffuse> diffuse() const { return m_view.diffuse; }
     std::span<const PointSpecular> specular() const { return m_view.specular; }
     std::span<const PointMirror> mirror() const { return m_view.mirror; }

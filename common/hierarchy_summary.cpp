@@ -21,7 +21,7 @@ std::string hierarchy_summary(const HierarchyFile& file, const std::string& inde
         indent, file.grid(), mesh_objects, file.objects().size() - mesh_objects,
         file.world_object(), file.instances().size(), file.nodes().size(), file.core().size(),
         file.triangles().size(), file.vertex_positions().size());
-    out += fmt::format("{}channels: position normal coverage diffuse", indent);
+    out += fmt::format("{}channels: position offset normal coverage diffuse", indent);
     if (!file.specular().empty()) {
         out += " specular";
     }

@@ -429,6 +429,22 @@ constexpr float decode_unit8(std::uint8_t code) {
     return static_cast<float>(code) / 255.0f;
 }
 
+/// Worst-case error of encode_offset8 over [−1, 1]: half a step of 1/127.
+inline constexpr float kOffset8MaxError = 0.5f / 127.0f;
+
+/// A signed offset in [−1, 1] voxel sides (a point's surface along its normal, which lies
+/// within the half diagonal √3/2 of the voxel centre) as round(127·x); out-of-range input
+/// saturates, NaN → 0. 0 and ±1 are exact.
+constexpr std::int8_t encode_offset8(float x) {
+    const float clamped = x >= -1.0f ? std::min(x, 1.0f) : (x < -1.0f ? -1.0f : 0.0f);
+    const float scaled = clamped * 127.0f;
+    return static_cast<std::int8_t>(scaled >= 0.0f ? scaled + 0.5f : scaled - 0.5f);
+}
+
+constexpr float decode_offset8(std::int8_t code) {
+    return static_cast<float>(code) / 127.0f;
+}
+
 /// Worst-case error of a linear colour channel in [0, 1], in linear units: half the largest gap
 /// between neighbouring decoded values, which is the top one, (1 − decode_srgb8(254))/2 =
 /// 4.4490e-3.

@@ -26,6 +26,7 @@
 #include <iostream>
 #include <memory>
 #include <new>
+#include <string>
 
 namespace {
 
@@ -36,6 +37,7 @@ struct Arguments {
     std::filesystem::path scene;
     std::filesystem::path output;
     mrt::PointOctreeOptions octree;
+    std::string sampling;  ///< As given; sets octree.sampling.
     int threads = 0;
     bool flatten = false;
     bool quiet = false;
@@ -73,6 +75,7 @@ int run(const Arguments& args) {
         {"grid", args.octree.grid},
         {"max_representatives", args.octree.max_representatives},
         {"oversampling", args.octree.oversampling},
+        {"sampling", args.sampling},
         {"seed", args.octree.seed},
         {"flatten", args.flatten},
     };
@@ -117,6 +120,10 @@ int main(int argc, char** argv) {
                    "Prefiltering samples per voxel face of surface")
         ->check(CLI::Range(1, 100000))
         ->default_val(100);
+    app.add_option("--sampling", args.sampling,
+                   "Placement of the prefiltering samples on each triangle")
+        ->check(CLI::IsMember({"low-discrepancy", "random"}))
+        ->default_val("low-discrepancy");
     app.add_option("--seed", args.octree.seed, "Seed of the sample sequences")->default_val(0);
     app.add_option("--threads", args.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024))
@@ -131,6 +138,8 @@ int main(int argc, char** argv) {
             limit.emplace(tbb::global_control::max_allowed_parallelism,
                           static_cast<std::size_t>(args.threads));
         }
+        args.octree.sampling = args.sampling == "random" ? mrt::TriangleSampling::Random
+                                                         : mrt::TriangleSampling::LowDiscrepancy;
         return run(args);
     });
 }

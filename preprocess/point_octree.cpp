@@ -172,8 +172,8 @@ class Builder {
         const auto limit = static_cast<std::size_t>(m_options.max_representatives);
         std::vector<std::uint32_t> voxels;
         for (std::uint32_t i = 0; i < count; ++i) {
-            const std::uint32_t v =
-                voxel_index(node, m_options.grid, sample_position(t, triangle_sample(i, key)));
+            const Vec2f b = triangle_sample(i, key, TriangleSampling::LowDiscrepancy);
+            const std::uint32_t v = voxel_index(node, m_options.grid, sample_position(t, b));
             if (std::find(voxels.begin(), voxels.end(), v) == voxels.end()) {
                 voxels.push_back(v);
                 if (voxels.size() > limit) {
@@ -208,7 +208,8 @@ class Builder {
             const std::span<SurfaceSample> out(samples.data() + offsets[i],
                                                offsets[i + 1] - offsets[i]);
             triangle_samples(m_mesh, m_materials, m_textures, tris[i],
-                             triangle_sample_key(m_options.seed, tris[i], level), nullptr, out);
+                             triangle_sample_key(m_options.seed, tris[i], level), nullptr, out,
+                             m_options.sampling);
             for (SurfaceSample& s : out) {
                 s.voxel = voxel_index(node, m_options.grid, s.position);
             }

@@ -16,6 +16,7 @@
 #include "common/math.h"
 #include "common/mesh.h"
 #include "common/scene.h"
+#include "preprocess/triangle_sampling.h"
 
 #include <array>
 #include <cstdint>
@@ -32,6 +33,10 @@ struct PointOctreeOptions {
     /// Prefiltering samples per voxel face of surface area (the paper's c over a minimum
     /// density of one per voxel face; representatives are chosen from 4 per voxel face).
     int oversampling = 100;
+    /// How the prefiltering samples are placed. The representatives are always chosen from the
+    /// low-discrepancy points, and so far the instance trees' points (scene_hierarchy.cpp) are
+    /// prefiltered from them too.
+    TriangleSampling sampling = TriangleSampling::LowDiscrepancy;
     std::uint64_t seed = 0;  ///< Seed of the sample sequences.
     int max_depth = 40;      ///< Below this every remaining triangle is kept.
 };
@@ -52,8 +57,15 @@ struct OctreePoint {
     float transparency = 0.0f;
     float roughness = 0.0f;
     float ior = 1.0f;
-    /// The samples' area per unit Gaussian weight: the surface area the point stands for,
-    /// relative to a voxel face (side²); about 1 for a flat surface through the voxel.
+    /// Where the surface lies from the voxel centre along `normal`, in voxel sides: the
+    /// prefilter-weighted mean of the samples' (position − centre)·normal. A tracer places the
+    /// point at centre + offset·side/k·normal, on the surface instead of up to √3/2 voxels off
+    /// it (a surface crossing from one voxel layer to the next would otherwise jump by a voxel).
+    float offset = 0.0f;
+    /// The surface area the point stands for, relative to a voxel face (side²): its share of
+    /// the samples' area, each sample's split among the node's points by their Gaussian
+    /// weights, so a node's coverages add up to the area of the triangles its points represent.
+    /// 1 for a flat surface along the grid; less on slanted ones, which occupy more voxels.
     float coverage = 0.0f;
 };
 

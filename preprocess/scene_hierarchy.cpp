@@ -44,7 +44,8 @@ void append_point_samples(const OctreeNode& node, int grid, const Affine3f& to_t
         }
         const Vec3f n = normal_matrix * p.normal;
         SurfaceSample s;
-        s.position = to_target * node.voxel_centre(p.voxel, grid);
+        // On the surface, not at the voxel centre (up to √3/2 voxels off it).
+        s.position = to_target * (node.voxel_centre(p.voxel, grid) + p.offset * voxel * p.normal);
         s.normal = n.normalized();
         // Area maps by |det L|·|L⁻ᵀn| for a unit normal n.
         s.area = p.coverage * voxel * voxel * det * n.norm();
@@ -126,7 +127,7 @@ class Collector {
         const std::uint64_t key = triangle_sample_key(
             m_hierarchy.options.seed ^ (0x9e3779b97f4a7c15ull * (o + 1)), t, level + 64);
         triangle_samples(mesh, m_materials, m_textures, t, key, &to_target,
-                         std::span(out).subspan(first, count));
+                         std::span(out).subspan(first, count), m_hierarchy.options.sampling);
     }
 
     const SceneHierarchy& m_hierarchy;

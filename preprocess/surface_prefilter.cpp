@@ -31,7 +31,8 @@ std::uint32_t voxel_index(const OctreeNode& node, int grid, const Vec3f& p) {
 
 void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
                       const TextureSampler* textures, std::uint32_t t, std::uint64_t key,
-                      const Affine3f* to_node, std::span<SurfaceSample> out) {
+                      const Affine3f* to_node, std::span<SurfaceSample> out,
+                      TriangleSampling scheme) {
     const auto& tri = mesh.triangles[t];
     std::array<Vec3f, 3> p{mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
     std::array<Vec3f, 3> n{mesh.normals[tri[0]], mesh.normals[tri[1]], mesh.normals[tri[2]]};
@@ -48,7 +49,7 @@ void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
     const bool textured = textures != nullptr && material.texture >= 0 && mesh.has_uvs();
     const double log_phong = std::log(std::max(material.phong_exponent, 1e-3f));
     for (std::size_t j = 0; j < out.size(); ++j) {
-        const Vec2f b = triangle_sample(static_cast<std::uint32_t>(j), key);
+        const Vec2f b = triangle_sample(static_cast<std::uint32_t>(j), key, scheme);
         const float b0 = 1.0f - b.x() - b.y();
         SurfaceSample& s = out[j];
         s.position = b0 * p[0] + b.x() * p[1] + b.y() * p[2];
@@ -93,10 +94,62 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
     const float sigma = node.side / static_cast<float>(grid);
     const float inverse_two_sigma_squared = 0.5f / (sigma * sigma);
     const float cut = (static_cast<float>(kGatherRadius) + 0.5f) * sigma;
-    // A plane through the point's centre gives its samples this weight: the Gaussian's
-    // integral over the disc of radius `cut` it gathers from.
-    const float gathered = 1.0f - std::exp(-0.5f * (cut / sigma) * (cut / sigma));
-    const float plane_weight = 2.0f * kPi * sigma * sigma * gathered;
+    const auto centre_of = [&](std::uint32_t v) {
+        const auto kk = static_cast<std::uint32_t>(k);
+        const std::array<std::uint8_t, 3> voxel{static_cast<std::uint8_t>(v % kk),
+                                                static_cast<std::uint8_t>((v / kk) % kk),
+                                                static_cast<std::uint8_t>(v / (kk * kk))};
+        return node.voxel_centre(voxel, k);
+    };
+
+    // Coverage is each point's share of the samples' area: a sample's area is split among
+    // the points whose Gaussians reach it, in proportion to their weights, so the points'
+    // coverages add up to the surface's area wherever it lies relative to the grid (slanted
+    // surfaces occupy more voxels, each with less area) — what a ray's quadrature over the
+    // points needs (common/point_weight.h). First each sample's total weight over the points,
+    // one voxel of samples at a time (each sample written once: the same for any schedule).
+    std::vector<double> total_weight(samples.size(), 0.0);
+    std::vector<std::size_t> runs;  // starts of runs of one voxel in the sorted samples
+    for (std::size_t i = 0; i < sorted_voxels.size(); ++i) {
+        if (i == 0 || sorted_voxels[i] != sorted_voxels[i - 1]) {
+            runs.push_back(i);
+        }
+    }
+    runs.push_back(sorted_voxels.size());
+    tbb::parallel_for(std::size_t{0}, runs.size() - 1, [&](std::size_t run) {
+        const std::uint32_t v = sorted_voxels[runs[run]];
+        const int vx = static_cast<int>(v % static_cast<std::uint32_t>(k));
+        const int vy =
+            static_cast<int>((v / static_cast<std::uint32_t>(k)) % static_cast<std::uint32_t>(k));
+        const int vz = static_cast<int>(v / static_cast<std::uint32_t>(k * k));
+        std::vector<Vec3f> near;
+        for (int dz = -kGatherRadius; dz <= kGatherRadius; ++dz) {
+            for (int dy = -kGatherRadius; dy <= kGatherRadius; ++dy) {
+                for (int dx = -kGatherRadius; dx <= kGatherRadius; ++dx) {
+                    const int x = vx + dx, y = vy + dy, z = vz + dz;
+                    if (x < 0 || y < 0 || z < 0 || x >= k || y >= k || z >= k) {
+                        continue;
+                    }
+                    const auto id = static_cast<std::uint32_t>((z * k + y) * k + x);
+                    if (std::binary_search(chosen.begin(), chosen.end(), id)) {
+                        near.push_back(centre_of(id));
+                    }
+                }
+            }
+        }
+        for (std::size_t i = runs[run]; i < runs[run + 1]; ++i) {
+            const SurfaceSample& s = samples[order[i]];
+            double total = 0.0;
+            for (const Vec3f& c : near) {
+                const float d2 = (s.position - c).squaredNorm();
+                if (d2 <= cut * cut) {
+                    total += std::exp(-d2 * inverse_two_sigma_squared);
+                }
+            }
+            total_weight[order[i]] = total;
+        }
+    });
+
     tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t r) {
         const std::uint32_t v = chosen[r];
         const int vx = static_cast<int>(v % static_cast<std::uint32_t>(k));
@@ -108,6 +161,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
                        static_cast<std::uint8_t>(vz)};
         const Vec3f centre = node.voxel_centre(point.voxel, k);
         double weight_sum = 0.0;
+        double area_share = 0.0;
         Eigen::Vector3d diffuse = Eigen::Vector3d::Zero(), specular = Eigen::Vector3d::Zero();
         double log_phong = 0.0, reflectivity = 0.0, transparency = 0.0, roughness = 0.0, ior = 0.0;
         std::vector<NormalSample> neighbours;
@@ -128,8 +182,12 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
                         if (d2 > cut * cut) {
                             continue;
                         }
-                        const double w = std::exp(-d2 * inverse_two_sigma_squared) * s.area;
+                        const std::uint32_t index =
+                            order[static_cast<std::size_t>(it - sorted_voxels.begin())];
+                        const double gauss = std::exp(-d2 * inverse_two_sigma_squared);
+                        const double w = gauss * s.area;
                         weight_sum += w;
+                        area_share += w / total_weight[index];
                         neighbours.push_back({s.position, s.normal, static_cast<float>(w)});
                         diffuse += w * s.diffuse.matrix().cast<double>();
                         specular += w * s.specular.matrix().cast<double>();
@@ -148,6 +206,11 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         const double inv = 1.0 / weight_sum;
         const NormalGradientFit fit = fit_normal_gradient(centre, neighbours);
         point.normal = fit.normal;
+        double along = 0.0;
+        for (const NormalSample& n : neighbours) {
+            along += static_cast<double>(n.weight) * (n.position - centre).dot(fit.normal);
+        }
+        point.offset = static_cast<float>(along * inv / sigma);
         point.gradient = fit.gradient;
         point.gradient_fitted = fit.fitted;
         point.diffuse = (diffuse * inv).cast<float>().array();
@@ -157,7 +220,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         point.transparency = static_cast<float>(transparency * inv);
         point.roughness = static_cast<float>(roughness * inv);
         point.ior = static_cast<float>(ior * inv);
-        point.coverage = static_cast<float>(weight_sum / plane_weight);
+        point.coverage = static_cast<float>(area_share / (static_cast<double>(sigma) * sigma));
     });
     return points;
 }

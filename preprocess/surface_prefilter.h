@@ -6,6 +6,7 @@
 
 #include "common/math.h"
 #include "preprocess/point_octree.h"
+#include "preprocess/triangle_sampling.h"
 
 #include <cstdint>
 #include <span>
@@ -35,13 +36,14 @@ struct SurfaceSample {
 /// Linear index (x fastest) of the voxel of `node`'s grid that holds p (clamped to the grid).
 std::uint32_t voxel_index(const OctreeNode& node, int grid, const Vec3f& p);
 
-/// Fills `out` with the first out.size() samples of the sequence `key` on triangle t of `mesh`,
-/// each standing for an equal share of its area, placed by `to_node` (object → node space;
-/// null is the identity). `textures` may be null when no material is textured. Voxels are
-/// left for the caller.
+/// Fills `out` with the first out.size() samples of the sequence `key` of `scheme` on triangle t
+/// of `mesh`, each standing for an equal share of its area, placed by `to_node` (object → node
+/// space; null is the identity). `textures` may be null when no material is textured. Voxels
+/// are left for the caller.
 void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
                       const TextureSampler* textures, std::uint32_t t, std::uint64_t key,
-                      const Affine3f* to_node, std::span<SurfaceSample> out);
+                      const Affine3f* to_node, std::span<SurfaceSample> out,
+                      TriangleSampling scheme);
 
 /// The node's points: one at the centre of every voxel in `chosen` (linear indices, repeats
 /// allowed), its attributes the Gaussian-weighted averages of `samples` (whose `voxel` fields

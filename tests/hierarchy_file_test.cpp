@@ -70,6 +70,7 @@ HierarchyData small_hierarchy() {
               static_cast<std::uint8_t>((i + 1) % 4)},
              static_cast<std::uint8_t>(50 * i),
              {static_cast<std::uint16_t>(1000 * k), static_cast<std::uint16_t>(7 * k)}});
+        d.offset.push_back({static_cast<std::int8_t>(40 * i - 90)});
         d.diffuse.push_back({{static_cast<std::uint8_t>(10 * k), static_cast<std::uint8_t>(20 * k),
                               static_cast<std::uint8_t>(30 * k)},
                              0});
@@ -139,6 +140,7 @@ void write_raw(const fs::path& path, const HierarchyData& d, const HierarchyHead
     add_raw(w, "INST", d.instances, skip);
     add_raw(w, "NODE", d.nodes, skip);
     add_raw(w, "PCOR", d.core, skip);
+    add_raw(w, "POFS", d.offset, skip);
     add_raw(w, "PDIF", d.diffuse, skip);
     add_raw(w, "PSPC", d.specular, skip, true);
     add_raw(w, "PMIR", d.mirror, skip, true);
@@ -185,6 +187,7 @@ TEST(HierarchyFile, RoundTripsEveryRecordExactly) {
     expect_same_records(f.instances(), d.instances, "instances");
     expect_same_records(f.nodes(), d.nodes, "nodes");
     expect_same_records(f.core(), d.core, "core");
+    expect_same_records(f.offset(), d.offset, "offset");
     expect_same_records(f.diffuse(), d.diffuse, "diffuse");
     expect_same_records(f.specular(), d.specular, "specular");
     expect_same_records(f.mirror(), d.mirror, "mirror");
@@ -258,6 +261,8 @@ TEST(HierarchyFileWriter, RefusesInconsistentDataAndWritesNothing) {
     const std::vector<WriterCase> cases = {
         {"diffuse short", [](HierarchyData& d) { d.diffuse.pop_back(); }, "section 'PDIF'",
          "4 records, expected 5 (one per point)"},
+        {"offset long", [](HierarchyData& d) { d.offset.push_back({}); }, "section 'POFS'",
+         "6 records, expected 5 (one per point)"},
         {"diffuse missing", [](HierarchyData& d) { d.diffuse.clear(); }, "section 'PDIF'",
          "0 records, expected 5 (one per point)"},
         {"specular long", [](HierarchyData& d) { d.specular.push_back({}); }, "section 'PSPC'",
@@ -438,6 +443,7 @@ TEST(HierarchyFileReader, RefusesBadReferencesInChecksumValidFiles) {
          "section 'TMAT'", "3 records, expected 2 (one per triangle)"},
         {"missing normals", none, no_head, section_tag("VNRM"), "section 'VNRM'", "missing"},
         {"missing diffuse", none, no_head, section_tag("PDIF"), "section 'PDIF'", "missing"},
+        {"missing offset", none, no_head, section_tag("POFS"), "section 'POFS'", "missing"},
         {"missing build", none, no_head, section_tag("BILD"), "section 'BILD'", "missing"},
         {"missing header", none, no_head, section_tag("HEAD"), "section 'HEAD'", "missing"},
         {"header grid 0", none, [](HierarchyHeader& h) { h.grid = 0; }, 0, "section 'HEAD'",

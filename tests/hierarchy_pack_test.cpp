@@ -55,6 +55,10 @@ TEST(HierarchyPack, RecordsDecodeToTheOctreeAndRoundTripThroughTheFile) {
         for (const OctreePoint& p : node.points) {
             const PointCore& core = data.core[point];
             EXPECT_EQ(core.voxel, p.voxel);
+            EXPECT_NEAR(decode_offset8(data.offset[point].along_normal), p.offset,
+                        kOffset8MaxError + 1e-6f);
+            // A sphere's surface lies on the normal through the voxel within the voxel.
+            EXPECT_LE(std::abs(p.offset), 0.87f);
             EXPECT_LE(testing::angle_between(decode_normal(core.normal).cast<double>(),
                                              p.normal.cast<double>()),
                       kNormalMaxAngularError);

@@ -531,6 +531,28 @@ TEST(TangentAngle, CanonicalTangentIsCodeZeroExactlyAndDegenerateTangentsGiveZer
 // ---------------------------------------------------------------------------------------------
 // Material scalars
 
+TEST(Offset8, ExhaustiveRoundTripErrorBoundSymmetryAndSaturation) {
+    for (int c = -127; c <= 127; ++c) {
+        const auto code = static_cast<std::int8_t>(c);
+        ASSERT_EQ(encode_offset8(decode_offset8(code)), code);
+        ASSERT_EQ(decode_offset8(code), static_cast<float>(c / 127.0));
+    }
+    double worst = 0.0;
+    for (int i = -1000000; i <= 1000000; ++i) {
+        const auto x = static_cast<float>(i / 1e6);
+        worst =
+            std::max(worst, std::abs(static_cast<double>(decode_offset8(encode_offset8(x))) - x));
+        ASSERT_EQ(encode_offset8(-x), -encode_offset8(x)) << x;
+    }
+    EXPECT_LE(worst, kOffset8MaxError + 1e-7);  // + the float rounding of c/127
+    EXPECT_EQ(encode_offset8(0.0f), 0);
+    EXPECT_EQ(encode_offset8(-1.5f), -127);
+    EXPECT_EQ(encode_offset8(1.5f), 127);
+    EXPECT_EQ(encode_offset8(kInfinity), 127);
+    EXPECT_EQ(encode_offset8(-kInfinity), -127);
+    EXPECT_EQ(encode_offset8(kNaN), 0);
+}
+
 TEST(Unit8, ExhaustiveRoundTripErrorBoundAndSaturation) {
     for (int c = 0; c < 256; ++c) {
         const auto code = static_cast<std::uint8_t>(c);
