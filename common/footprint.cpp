@@ -218,4 +218,41 @@ Mat2f FootprintCone::clamp_anisotropy(const Mat2f& footprint, float max_anisotro
     return clamped;
 }
 
+Mat2f FootprintCone::widened(const Mat2f& footprint, float radius) {
+    const Mat2f f = footprint * footprint.transpose();
+    const float a = f(0, 0) + radius * radius;
+    const float b = 0.5f * (f(0, 1) + f(1, 0));
+    const float c = f(1, 1) + radius * radius;
+    // The square root of a symmetric positive semi-definite 2×2 matrix C is (C + s·I)/τ with
+    // s = √det C and τ = √(tr C + 2s) (Cayley–Hamilton): no eigen-decomposition, and every
+    // term is a sum of non-negative numbers except det C, taken without cancellation.
+    const float s = std::sqrt(std::max(difference_of_products(a, c, b, b), 0.0f));
+    const float tau = std::sqrt(a + c + 2.0f * s);
+    if (!(tau > 0.0f) || !std::isfinite(tau)) {
+        return Mat2f::Zero();
+    }
+    Mat2f root;
+    root << (a + s) / tau, b / tau, b / tau, (c + s) / tau;
+    return root;
+}
+
+FootprintInverse FootprintCone::inverse(const Mat2f& footprint) {
+    const float det =
+        difference_of_products(footprint(0, 0), footprint(1, 1), footprint(0, 1), footprint(1, 0));
+    FootprintInverse result;
+    const float inverse_det = 1.0f / det;
+    if (!std::isfinite(inverse_det) || !std::isfinite(det) || det == 0.0f) {
+        return result;
+    }
+    Mat2f inverse;
+    inverse << footprint(1, 1), -footprint(0, 1), -footprint(1, 0), footprint(0, 0);
+    inverse *= inverse_det;
+    if (!all_finite(inverse)) {
+        return result;
+    }
+    result.inverse = inverse;
+    result.abs_det = std::abs(det);
+    return result;
+}
+
 }  // namespace mrt

@@ -110,6 +110,17 @@ struct SymmetricEigen2 {
 };
 SymmetricEigen2 symmetric_eigen2(float a, float b, float c);
 
+/// The inverse of a 2×2 footprint matrix F (ray u/v offsets per pixel offset) and |det F|, the
+/// area of F's unit-disc ellipse over π (ray u/v units²). The determinant is an FMA-compensated
+/// difference of products, so nearly collinear columns do not cancel it to a wrong sign or size.
+struct FootprintInverse {
+    /// F⁻¹: an offset in the ray's u/v plane → footprint coordinates, in which the footprint's
+    /// Gaussian exp(−|F⁻¹x|²) (Wand eq. 2) is the unit Gaussian. Zero when F is singular.
+    Mat2f inverse = Mat2f::Zero();
+    /// |det F|; 0 when F is singular or its inverse would not be finite.
+    float abs_det = 0.0f;
+};
+
 /// Wand & Straßer's cone of a ray: the footprint at distance t along the unit direction is
 /// F(t) = start_dev + t·incr_dev, mapping a pixel offset (dx, dy) to an offset in the plane
 /// orthogonal to the ray, in the basis (u, v) of that plane.
@@ -133,6 +144,16 @@ struct FootprintCone {
     /// Wand §5.1: the minor axis grown so that major/minor ≤ max_anisotropy, keeping the
     /// major axis: returns F' with the same major axis and a wider minor one.
     static Mat2f clamp_anisotropy(const Mat2f& footprint, float max_anisotropy);
+
+    /// The footprint convolved with the isotropic Gaussian exp(−|x|²/radius²) (radius in ray
+    /// u/v units): Gaussians convolve by adding their squared matrices (Wand §4.2, after
+    /// Zwicker et al.'s EWA resampling filter), so the result G has G·Gᵀ = F·Fᵀ + radius²·I.
+    /// G is the symmetric square root of that sum, in closed form; as with clamp_anisotropy
+    /// only G·Gᵀ is meaningful. A non-zero radius makes G invertible whatever F is.
+    static Mat2f widened(const Mat2f& footprint, float radius);
+
+    /// F⁻¹ and |det F| (see FootprintInverse); all zero for a singular or non-finite F.
+    static FootprintInverse inverse(const Mat2f& footprint);
 };
 
 }  // namespace mrt
