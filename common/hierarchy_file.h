@@ -44,7 +44,7 @@
 namespace mrt {
 
 /// Format version of .mrh files this build reads and writes.
-inline constexpr std::uint32_t kHierarchyFileVersion = 2;
+inline constexpr std::uint32_t kHierarchyFileVersion = 3;
 
 /// The single record of the 'HEAD' section: the grid of every node and the counts the arrays
 /// are checked against.
@@ -113,8 +113,7 @@ static_assert(sizeof(HierarchyInstance) == 64);
 
 struct PointCore {
     VoxelCode voxel;  ///< Voxel of the node's grid; the point sits at its centre.
-    /// Area the point stands for over the voxel face (OctreePoint::coverage, c), stored as
-    /// encode_unit8(min(1, c/2)).
+    /// Area the point stands for over the voxel face (OctreePoint::coverage), encode_coverage8.
     std::uint8_t coverage;
     NormalCode normal;
 };

@@ -99,7 +99,7 @@ PointWeightFrame point_weight_frame(const FootprintCone& cone, float t, float sp
 /// The weight of a point at `offset_uv` from the cone's axis (its components along the ray's u
 /// and v, in the units of F and h), whose unit normal n has n·d = `normal_dot_direction` with
 /// the ray's unit direction d (either sign: n is a surface's, not a side's), and whose coverage
-/// is `coverage` as the tracer decodes it (2·decode_unit8 of the stored code). Zero outside the
+/// is `coverage` as the tracer decodes it (decode_coverage8 of the stored code). Zero outside the
 /// clip, for a point seen edge-on and for a degenerate frame; NaN offsets weigh 0.
 inline float point_weight(const PointWeightFrame& frame, const Vec2f& offset_uv,
                           float normal_dot_direction, float coverage) {

@@ -429,6 +429,17 @@ constexpr float decode_unit8(std::uint8_t code) {
     return static_cast<float>(code) / 255.0f;
 }
 
+/// Coverage (the area a point stands for over its voxel face, preprocess/point_octree.h) in
+/// [0, 2] as encode_unit8(c/2): a surface folded into one voxel counts up to twice; more
+/// saturates. Error at most 2·kUnit8MaxError.
+constexpr std::uint8_t encode_coverage8(float coverage) {
+    return encode_unit8(0.5f * coverage);
+}
+
+constexpr float decode_coverage8(std::uint8_t code) {
+    return 2.0f * decode_unit8(code);
+}
+
 /// Worst-case error of encode_offset8 over [−1, 1]: half a step of 1/127.
 inline constexpr float kOffset8MaxError = 0.5f / 127.0f;
 

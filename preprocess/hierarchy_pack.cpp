@@ -26,9 +26,7 @@ std::uint32_t count32(std::size_t n, const char* what) {
 
 void pack_points(const OctreeNode& node, const HierarchyChannels& channels, HierarchyData& data) {
     for (const OctreePoint& p : node.points) {
-        // Coverage is stored up to 2 (a surface folded into the Gaussian counts twice).
-        data.core.push_back(
-            {p.voxel, encode_unit8(std::min(1.0f, 0.5f * p.coverage)), encode_normal(p.normal)});
+        data.core.push_back({p.voxel, encode_coverage8(p.coverage), encode_normal(p.normal)});
         data.offset.push_back({encode_offset8(p.offset)});
         data.diffuse.push_back({encode_rgb8(p.diffuse), 0});
         if (channels.specular) {

@@ -276,7 +276,7 @@ struct LevelPoints {
     /// On the surface: voxel centre + decoded offset·h·normal (world space).
     std::vector<Vec3f> position;
     std::vector<Vec3f> normal;    ///< Decoded octahedral normals.
-    std::vector<float> coverage;  ///< Decoded 8-bit coverage, 2·decode_unit8(code).
+    std::vector<float> coverage;  ///< Decoded 8-bit coverage (decode_coverage8).
     std::vector<float> spacing;   ///< The node's voxel side h.
     float max_spacing = 0.0f;
     PositionGrid grid;
@@ -297,8 +297,7 @@ std::map<int, LevelPoints> points_by_level(const PointOctree& octree) {
                                      decode_offset8(encode_offset8(p.offset)) * h * normal);
             level.normal.push_back(normal);
             // As hierarchy_pack.cpp stores it.
-            level.coverage.push_back(2.0f *
-                                     decode_unit8(encode_unit8(std::min(1.0f, 0.5f * p.coverage))));
+            level.coverage.push_back(decode_coverage8(encode_coverage8(p.coverage)));
             level.spacing.push_back(h);
         }
     }

@@ -531,6 +531,20 @@ TEST(TangentAngle, CanonicalTangentIsCodeZeroExactlyAndDegenerateTangentsGiveZer
 // ---------------------------------------------------------------------------------------------
 // Material scalars
 
+TEST(Coverage8, RoundTripsWithinTwoUnitStepsAndSaturatesAtTwo) {
+    double worst = 0.0;
+    for (int i = 0; i <= 200000; ++i) {
+        const auto c = static_cast<float>(i / 1e5);
+        worst = std::max(worst,
+                         std::abs(static_cast<double>(decode_coverage8(encode_coverage8(c))) - c));
+    }
+    EXPECT_LE(worst, 2.0 * kUnit8MaxError + 1e-7);
+    EXPECT_EQ(decode_coverage8(encode_coverage8(1.0f)), 2.0f * decode_unit8(encode_unit8(0.5f)));
+    EXPECT_EQ(decode_coverage8(encode_coverage8(7.0f)), 2.0f);
+    EXPECT_EQ(decode_coverage8(encode_coverage8(0.0f)), 0.0f);
+    EXPECT_EQ(encode_coverage8(kNaN), 0);
+}
+
 TEST(Offset8, ExhaustiveRoundTripErrorBoundSymmetryAndSaturation) {
     for (int c = -127; c <= 127; ++c) {
         const auto code = static_cast<std::int8_t>(c);
