@@ -17,6 +17,31 @@ namespace {
 /// Prefiltering neighbourhood: samples within this many voxels (σ) of a point's centre.
 constexpr int kGatherRadius = 2;
 
+/// The voxel of linear index v (x fastest) in a k³ grid.
+std::array<std::uint8_t, 3> voxel_coordinates(std::uint32_t v, int k) {
+    const auto kk = static_cast<std::uint32_t>(k);
+    return {static_cast<std::uint8_t>(v % kk), static_cast<std::uint8_t>((v / kk) % kk),
+            static_cast<std::uint8_t>(v / (kk * kk))};
+}
+
+/// Calls f(linear index) for every voxel of the k³ grid within kGatherRadius voxels of voxel
+/// v along each axis.
+template <class F>
+void for_each_voxel_near(std::uint32_t v, int k, const F& f) {
+    const std::array<std::uint8_t, 3> c = voxel_coordinates(v, k);
+    const int vx = c[0], vy = c[1], vz = c[2];
+    for (int dz = -kGatherRadius; dz <= kGatherRadius; ++dz) {
+        for (int dy = -kGatherRadius; dy <= kGatherRadius; ++dy) {
+            for (int dx = -kGatherRadius; dx <= kGatherRadius; ++dx) {
+                const int x = vx + dx, y = vy + dy, z = vz + dz;
+                if (x >= 0 && y >= 0 && z >= 0 && x < k && y < k && z < k) {
+                    f(static_cast<std::uint32_t>((z * k + y) * k + x));
+                }
+            }
+        }
+    }
+}
+
 }  // namespace
 
 std::uint32_t voxel_index(const OctreeNode& node, int grid, const Vec3f& p) {
@@ -94,13 +119,6 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
     const float sigma = node.side / static_cast<float>(grid);
     const float inverse_two_sigma_squared = 0.5f / (sigma * sigma);
     const float cut = (static_cast<float>(kGatherRadius) + 0.5f) * sigma;
-    const auto centre_of = [&](std::uint32_t v) {
-        const auto kk = static_cast<std::uint32_t>(k);
-        const std::array<std::uint8_t, 3> voxel{static_cast<std::uint8_t>(v % kk),
-                                                static_cast<std::uint8_t>((v / kk) % kk),
-                                                static_cast<std::uint8_t>(v / (kk * kk))};
-        return node.voxel_centre(voxel, k);
-    };
 
     // Coverage is each point's share of the samples' area: a sample's area is split among
     // the points whose Gaussians reach it, in proportion to their weights, so the points'
@@ -117,26 +135,12 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
     }
     runs.push_back(sorted_voxels.size());
     tbb::parallel_for(std::size_t{0}, runs.size() - 1, [&](std::size_t run) {
-        const std::uint32_t v = sorted_voxels[runs[run]];
-        const int vx = static_cast<int>(v % static_cast<std::uint32_t>(k));
-        const int vy =
-            static_cast<int>((v / static_cast<std::uint32_t>(k)) % static_cast<std::uint32_t>(k));
-        const int vz = static_cast<int>(v / static_cast<std::uint32_t>(k * k));
         std::vector<Vec3f> near;
-        for (int dz = -kGatherRadius; dz <= kGatherRadius; ++dz) {
-            for (int dy = -kGatherRadius; dy <= kGatherRadius; ++dy) {
-                for (int dx = -kGatherRadius; dx <= kGatherRadius; ++dx) {
-                    const int x = vx + dx, y = vy + dy, z = vz + dz;
-                    if (x < 0 || y < 0 || z < 0 || x >= k || y >= k || z >= k) {
-                        continue;
-                    }
-                    const auto id = static_cast<std::uint32_t>((z * k + y) * k + x);
-                    if (std::binary_search(chosen.begin(), chosen.end(), id)) {
-                        near.push_back(centre_of(id));
-                    }
-                }
+        for_each_voxel_near(sorted_voxels[runs[run]], k, [&](std::uint32_t id) {
+            if (std::binary_search(chosen.begin(), chosen.end(), id)) {
+                near.push_back(node.voxel_centre(voxel_coordinates(id, k), k));
             }
-        }
+        });
         for (std::size_t i = runs[run]; i < runs[run + 1]; ++i) {
             const SurfaceSample& s = samples[order[i]];
             double total = 0.0;
@@ -152,54 +156,39 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
 
     tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t r) {
         const std::uint32_t v = chosen[r];
-        const int vx = static_cast<int>(v % static_cast<std::uint32_t>(k));
-        const int vy =
-            static_cast<int>((v / static_cast<std::uint32_t>(k)) % static_cast<std::uint32_t>(k));
-        const int vz = static_cast<int>(v / static_cast<std::uint32_t>(k * k));
         OctreePoint& point = points[r];
-        point.voxel = {static_cast<std::uint8_t>(vx), static_cast<std::uint8_t>(vy),
-                       static_cast<std::uint8_t>(vz)};
+        point.voxel = voxel_coordinates(v, k);
         const Vec3f centre = node.voxel_centre(point.voxel, k);
         double weight_sum = 0.0;
         double area_share = 0.0;
         Eigen::Vector3d diffuse = Eigen::Vector3d::Zero(), specular = Eigen::Vector3d::Zero();
         double log_phong = 0.0, reflectivity = 0.0, transparency = 0.0, roughness = 0.0, ior = 0.0;
         std::vector<NormalSample> neighbours;
-        for (int dz = -kGatherRadius; dz <= kGatherRadius; ++dz) {
-            for (int dy = -kGatherRadius; dy <= kGatherRadius; ++dy) {
-                for (int dx = -kGatherRadius; dx <= kGatherRadius; ++dx) {
-                    const int x = vx + dx, y = vy + dy, z = vz + dz;
-                    if (x < 0 || y < 0 || z < 0 || x >= k || y >= k || z >= k) {
-                        continue;
-                    }
-                    const auto id = static_cast<std::uint32_t>((z * k + y) * k + x);
-                    const auto range =
-                        std::equal_range(sorted_voxels.begin(), sorted_voxels.end(), id);
-                    for (auto it = range.first; it != range.second; ++it) {
-                        const SurfaceSample& s =
-                            samples[order[static_cast<std::size_t>(it - sorted_voxels.begin())]];
-                        const float d2 = (s.position - centre).squaredNorm();
-                        if (d2 > cut * cut) {
-                            continue;
-                        }
-                        const std::uint32_t index =
-                            order[static_cast<std::size_t>(it - sorted_voxels.begin())];
-                        const double gauss = std::exp(-d2 * inverse_two_sigma_squared);
-                        const double w = gauss * s.area;
-                        weight_sum += w;
-                        area_share += w / total_weight[index];
-                        neighbours.push_back({s.position, s.normal, static_cast<float>(w)});
-                        diffuse += w * s.diffuse.matrix().cast<double>();
-                        specular += w * s.specular.matrix().cast<double>();
-                        log_phong += w * s.log_phong;
-                        reflectivity += w * s.reflectivity;
-                        transparency += w * s.transparency;
-                        roughness += w * s.roughness;
-                        ior += w * s.ior;
-                    }
+        for_each_voxel_near(v, k, [&](std::uint32_t id) {
+            const auto range = std::equal_range(sorted_voxels.begin(), sorted_voxels.end(), id);
+            for (auto it = range.first; it != range.second; ++it) {
+                const SurfaceSample& s =
+                    samples[order[static_cast<std::size_t>(it - sorted_voxels.begin())]];
+                const float d2 = (s.position - centre).squaredNorm();
+                if (d2 > cut * cut) {
+                    continue;
                 }
+                const std::uint32_t index =
+                    order[static_cast<std::size_t>(it - sorted_voxels.begin())];
+                const double gauss = std::exp(-d2 * inverse_two_sigma_squared);
+                const double w = gauss * s.area;
+                weight_sum += w;
+                area_share += w / total_weight[index];
+                neighbours.push_back({s.position, s.normal, static_cast<float>(w)});
+                diffuse += w * s.diffuse.matrix().cast<double>();
+                specular += w * s.specular.matrix().cast<double>();
+                log_phong += w * s.log_phong;
+                reflectivity += w * s.reflectivity;
+                transparency += w * s.transparency;
+                roughness += w * s.roughness;
+                ior += w * s.ior;
             }
-        }
+        });
         if (!(weight_sum > 0.0)) {
             return;  // only a voxel whose own samples all have zero area: coverage stays 0
         }
