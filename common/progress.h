@@ -22,6 +22,9 @@ public:
     /// Draws 100 % and ends the line (also done by the destructor).
     void finish();
 
+    /// Units advanced so far (counted whether or not a bar is drawn).
+    std::uint64_t done() const { return m_done.load(std::memory_order_relaxed); }
+
     /// Whether a bar would be drawn (stderr is a terminal and not quiet).
     bool enabled() const { return m_enabled; }
 

@@ -60,9 +60,8 @@ int run(const Arguments& args) {
     const double load_seconds = seconds_since(load_start);
 
     const auto build_start = Clock::now();
-    const std::uint64_t triangles =
-        args.flatten ? scene.instanced_triangle_count() : scene.unique_triangle_count();
-    mrt::Progress progress("octree", triangles, args.quiet);
+    mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene, args.flatten),
+                           args.quiet);
     const mrt::SceneHierarchy hierarchy =
         mrt::build_scene_hierarchy(scene, textures.get(), args.octree, args.flatten, &progress);
     progress.finish();

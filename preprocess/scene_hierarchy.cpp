@@ -1,6 +1,7 @@
 #include "preprocess/scene_hierarchy.h"
 
 #include "common/error.h"
+#include "common/progress.h"
 #include "preprocess/octree_layout.h"
 #include "preprocess/surface_prefilter.h"
 #include "preprocess/triangle_sampling.h"
@@ -286,6 +287,17 @@ class GroupBuilder {
 
 }  // namespace
 
+std::uint64_t hierarchy_progress_total(const Scene& scene, bool flatten) {
+    if (flatten) {
+        return scene.instanced_triangle_count();
+    }
+    std::uint64_t total = scene.unique_triangle_count();
+    for (const Group& group : scene.groups) {
+        total += group.children.size();
+    }
+    return total;
+}
+
 SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* textures,
                                      const PointOctreeOptions& options, bool flatten,
                                      Progress* progress) {
@@ -386,6 +398,9 @@ SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* t
         h.objects.push_back(std::move(object));
         // The collector reads the finished levels of this tree through the hierarchy.
         builder.add_points(o, h.objects[o].tree);
+        if (progress != nullptr) {
+            progress->advance(scene.groups[g].children.size());
+        }
     }
     if (!group_object[scene.root]) {
         throw Error(scene.file, "", "the scene has no triangles to build a hierarchy of");

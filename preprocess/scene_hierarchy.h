@@ -54,11 +54,16 @@ struct SceneHierarchy {
 /// Builds the hierarchy of `scene`'s world. With `flatten`, one octree over every triangle in
 /// world space instead (instances expanded). `textures` may be null when nothing is textured.
 /// Deterministic for the options' seed whatever the number of threads; `progress` advances by
-/// one per triangle coming to rest in a mesh octree (its total: the unique triangle count, or
-/// the instanced one when flattening).
+/// one per triangle coming to rest in a mesh octree and by a group's instances when its
+/// instance tree has its points (its total: hierarchy_progress_total).
 SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* textures,
                                      const PointOctreeOptions& options, bool flatten,
                                      Progress* progress = nullptr);
+
+/// The units build_scene_hierarchy advances a progress bar by when it builds every mesh and
+/// group of the scene: the unique triangles and the groups' instances (flattened: every
+/// instanced triangle).
+std::uint64_t hierarchy_progress_total(const Scene& scene, bool flatten);
 
 /// Most instances a leaf of an instance tree holds.
 inline constexpr std::size_t kInstancesPerLeaf = 4;

@@ -7,6 +7,7 @@
 #include "preprocess/scene_hierarchy.h"
 #include "common/hierarchy_file.h"
 #include "common/procedural.h"
+#include "common/progress.h"
 #include "preprocess/hierarchy_pack.h"
 
 #include <gtest/gtest.h>
@@ -309,6 +310,18 @@ TEST(SceneHierarchy, FileIsByteIdenticalForAnyThreadCount) {
     EXPECT_TRUE(same(one.objects, many.objects));
     EXPECT_TRUE(same(one.triangles, many.triangles));
     EXPECT_EQ(one.world_object, many.world_object);
+}
+
+TEST(SceneHierarchy, ProgressReachesItsTotalExactly) {
+    const Scene scene = plant_field(2, false);
+    for (const bool flatten : {false, true}) {
+        const std::uint64_t total = hierarchy_progress_total(scene, flatten);
+        Progress progress("test", total, true);
+        build_scene_hierarchy(scene, nullptr, {}, flatten, &progress);
+        EXPECT_EQ(progress.done(), total) << (flatten ? "flattened" : "instanced");
+    }
+    // Instanced: the unique triangles and the tile's and the world's instances.
+    EXPECT_EQ(hierarchy_progress_total(scene, false), scene.unique_triangle_count() + 10 + 4);
 }
 
 TEST(SceneHierarchy, StoresUniqueGeometryOnce) {
