@@ -1,0 +1,61 @@
+#include "trace/cone_bounds.h"
+
+#include "common/point_weight.h"
+
+#include <algorithm>
+#include <cmath>
+#include <ostream>
+
+namespace mrt {
+
+namespace {
+
+/// The bound on the clip ellipse's reach along e at depth t (see the header), over ρ.
+float reach_along(const FootprintCone& cone, float t, const Vec2f& e,
+                  float inverse_anisotropy_squared, float widening_squared) {
+    const Mat2f f = cone.at(t);
+    const Mat2f c = f * f.transpose();
+    const float major = symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1)).major;
+    return std::sqrt((f.transpose() * e).squaredNorm() + major * inverse_anisotropy_squared +
+                     widening_squared);
+}
+
+}  // namespace
+
+bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
+                           float max_anisotropy, float widening, float t_min, float t_max) {
+    const float near = std::max(sphere.t - sphere.radius, t_min);
+    const float far = std::min(sphere.t + sphere.radius, t_max);
+    if (!std::isfinite(near) || !std::isfinite(far) || !sphere.offset.allFinite() ||
+        !cone.start_dev.allFinite() || !cone.incr_dev.allFinite() || !std::isfinite(widening) ||
+        !(max_anisotropy >= 1.0f)) {
+        return true;
+    }
+    if (near > far) {
+        return false;  // wholly before t_min or after t_max
+    }
+    // Principal axes of the far footprint: any orthonormal pair would be conservative, these
+    // make the rectangle hug an anisotropic ellipse.
+    const Mat2f f = cone.at(far);
+    const Mat2f c = f * f.transpose();
+    const SymmetricEigen2 axes = symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1));
+    const float rho = std::sqrt(kPointWeightClipExponent);
+    const float inverse_anisotropy_squared = 1.0f / (max_anisotropy * max_anisotropy);
+    const float widening_squared = widening * widening;
+    for (const Vec2f& e : {axes.major_axis, axes.minor_axis}) {
+        const float reach =
+            rho * std::max(reach_along(cone, near, e, inverse_anisotropy_squared, widening_squared),
+                           reach_along(cone, far, e, inverse_anisotropy_squared, widening_squared));
+        if (std::abs(sphere.offset.dot(e)) > reach + sphere.radius) {
+            return false;
+        }
+    }
+    return true;
+}
+
+std::ostream& operator<<(std::ostream& os, const SphereInRayFrame& s) {
+    return os << "SphereInRayFrame{t " << s.t << ", offset (" << s.offset.x() << ", "
+              << s.offset.y() << "), radius " << s.radius << "}";
+}
+
+}  // namespace mrt
