@@ -1,0 +1,76 @@
+#pragma once
+// Ray cone – triangle intersection (Wand & Straßer §4.5): the triangle's vertices in ray
+// coordinates, each mapped into the coordinates of the cone's unit Gaussian at its own depth
+// ("through the eigenspace, for stability", §5.2), then the weight of the 2D triangle around
+// the origin. Triangle hits enter the A-buffer like points, so blurred edges and anti-aliased
+// silhouettes come from the weight.
+//
+// Two weights:
+// - `Paper`: §4.5's exp(−(d − ½)²) from the distance d of the triangle's closest point to the
+//   origin (1 for d ≤ ½, clipped below 2 %). It keeps full weight until half a Gaussian unit
+//   outside the edge, so silhouettes come out fat — the paper's own open problem (§6).
+// - `Coverage` (default): the Gaussian's mass over the triangle, exactly: with the origin
+//   inside, 1 minus what the three edges cut off; outside, what the edges facing it enclose.
+//   Each edge's share is (1/2π)∫exp(−h²/cos²α)dα over the angle it subtends (h its distance
+//   from the origin), a smooth integrand over less than π, integrated with 16-point
+//   Gauss–Legendre. ½ on a straight edge, ¼ at a right-angled corner, and a triangle much
+//   smaller than the footprint weighs its area times the Gaussian's height, as points do.
+//
+// Mapping. For a footprint F the Gaussian is exp(−|F⁻¹x|²). With F·Fᵀ = U·Λ·Uᵀ, the map
+// y = Λ^(−1/2)·Uᵀ·x differs from F⁻¹x by a rotation, so it gives the same Gaussian, and it is
+// computed from the stable closed-form eigen-decomposition (common/footprint.h) instead of an
+// inverse that loses everything when F's columns are nearly collinear; the anisotropy clamp
+// bounds Λ's condition. `PerVertex` maps every vertex with the footprint at its own depth (the
+// exact version of §5.2); `PerNode` uses one footprint for all three (the paper's faster
+// default: one decomposition per octree box).
+
+#include "common/footprint.h"
+#include "common/math.h"
+
+#include <array>
+#include <iosfwd>
+#include <optional>
+
+namespace mrt {
+
+enum class TriangleWeight { Paper, Coverage };
+
+/// A vertex in the coordinates of a ray cone: `t` along the unit direction, `offset` along the
+/// cone's u and v axes.
+struct VertexInRayFrame {
+    float t = 0.0f;
+    Vec2f offset = Vec2f::Zero();
+};
+
+/// How the cone is seen at a depth: the map into its unit Gaussian's coordinates.
+struct GaussianFrame {
+    Vec2f axis = Vec2f::UnitX();              ///< Major axis of the footprint ellipse (ray u/v).
+    Vec2f inverse_semi_axes = Vec2f::Zero();  ///< 1/√λ along the major and the minor axis.
+
+    /// The frame of footprint F (already anisotropy-clamped); a zero or non-finite F gives
+    /// zero inverse semi-axes (nothing maps anywhere but the origin).
+    static GaussianFrame of(const Mat2f& footprint);
+    Vec2f map(const Vec2f& offset) const;
+};
+
+struct ConeTriangleHit {
+    float t = 0.0f;       ///< Depth of the hit: the closest point's, interpolated.
+    float weight = 0.0f;  ///< In (0, 1] for `Coverage`; the A-buffer's weight.
+    float b1 = 0.0f;      ///< Barycentric coordinates of the closest point (vertex 1, 2).
+    float b2 = 0.0f;
+};
+
+/// The hit of the cone with the triangle, or nothing when its weight is below the 2 % clip or
+/// no vertex lies in front of t_min. `frames` are the Gaussian frames at the vertices (PerVertex)
+/// or three copies of one (PerNode).
+std::optional<ConeTriangleHit> intersect_cone_triangle(
+    const std::array<VertexInRayFrame, 3>& vertices, const std::array<GaussianFrame, 3>& frames,
+    TriangleWeight weight, float t_min);
+
+/// The Gaussian mass exp(−|y|²)/π over the 2D triangle (a, b, c), in [0, 1]: the `Coverage`
+/// weight, exposed for tests.
+float gaussian_triangle_mass(const Vec2f& a, const Vec2f& b, const Vec2f& c);
+
+std::ostream& operator<<(std::ostream& os, const ConeTriangleHit& hit);
+
+}  // namespace mrt
