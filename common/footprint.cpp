@@ -189,10 +189,13 @@ FootprintCone FootprintCone::from_differential(const Vec3f& d, const RayDifferen
     return cone;
 }
 
-SymmetricEigen2 FootprintCone::ellipse(float t) const {
-    const Mat2f f = at(t);
-    const Mat2f c = f * f.transpose();
+SymmetricEigen2 FootprintCone::ellipse_of(const Mat2f& footprint) {
+    const Mat2f c = footprint * footprint.transpose();
     return symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1));
+}
+
+SymmetricEigen2 FootprintCone::ellipse(float t) const {
+    return ellipse_of(at(t));
 }
 
 float FootprintCone::max_diameter(float t) const {
@@ -204,8 +207,7 @@ float FootprintCone::min_diameter(float t) const {
 }
 
 Mat2f FootprintCone::clamp_anisotropy(const Mat2f& footprint, float max_anisotropy) {
-    const Mat2f c = footprint * footprint.transpose();
-    const SymmetricEigen2 e = symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1));
+    const SymmetricEigen2 e = ellipse_of(footprint);
     const float floor = e.major / (max_anisotropy * max_anisotropy);
     if (e.minor >= floor) {
         return footprint;

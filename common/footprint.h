@@ -138,6 +138,8 @@ struct FootprintCone {
     /// Axes of the footprint ellipse at t (the image of the unit pixel disc): the eigen-
     /// decomposition of F·Fᵀ; diameters are 2·√eigenvalue.
     SymmetricEigen2 ellipse(float t) const;
+    /// The same for any footprint matrix F (ray u/v units per pixel).
+    static SymmetricEigen2 ellipse_of(const Mat2f& footprint);
     float max_diameter(float t) const;
     float min_diameter(float t) const;
 

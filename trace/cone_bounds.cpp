@@ -14,8 +14,7 @@ namespace {
 float reach_along(const FootprintCone& cone, float t, const Vec2f& e,
                   float inverse_anisotropy_squared, float widening_squared) {
     const Mat2f f = cone.at(t);
-    const Mat2f c = f * f.transpose();
-    const float major = symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1)).major;
+    const float major = FootprintCone::ellipse_of(f).major;
     return std::sqrt((f.transpose() * e).squaredNorm() + major * inverse_anisotropy_squared +
                      widening_squared);
 }
@@ -36,9 +35,7 @@ bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& 
     }
     // Principal axes of the far footprint: any orthonormal pair would be conservative, these
     // make the rectangle hug an anisotropic ellipse.
-    const Mat2f f = cone.at(far);
-    const Mat2f c = f * f.transpose();
-    const SymmetricEigen2 axes = symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1));
+    const SymmetricEigen2 axes = cone.ellipse(far);
     const float rho = std::sqrt(kPointWeightClipExponent);
     const float inverse_anisotropy_squared = 1.0f / (max_anisotropy * max_anisotropy);
     const float widening_squared = widening * widening;

@@ -100,8 +100,7 @@ GaussianFrame GaussianFrame::of(const Mat2f& footprint) {
     if (!footprint.allFinite()) {
         return frame;
     }
-    const Mat2f c = footprint * footprint.transpose();
-    const SymmetricEigen2 e = symmetric_eigen2(c(0, 0), 0.5f * (c(0, 1) + c(1, 0)), c(1, 1));
+    const SymmetricEigen2 e = FootprintCone::ellipse_of(footprint);
     if (!(e.major > 0.0f)) {
         return frame;
     }
