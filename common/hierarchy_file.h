@@ -152,6 +152,16 @@ struct PointRefraction {
 };
 static_assert(sizeof(PointRefraction) == 2);
 
+/// Where a stored point's surface lies, in its node's space: the voxel centre moved along the
+/// decoded normal by the decoded offset (PointOffset), what a tracer intersects.
+inline Vec3f point_position(const HierarchyNode& node, int grid, const PointCore& core,
+                            const PointOffset& offset) {
+    const Vec3f origin(node.origin[0], node.origin[1], node.origin[2]);
+    const float voxel = node.side / static_cast<float>(grid);
+    return decode_voxel(core.voxel, origin, node.side, grid) +
+           decode_offset8(offset.along_normal) * voxel * decode_normal(core.normal);
+}
+
 /// The records of a hierarchy, wherever they live (in memory before writing, or in the
 /// mapped file): what the consistency checks and the tracer read.
 struct HierarchyView {
