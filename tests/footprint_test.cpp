@@ -2,8 +2,9 @@
 // precision: transfer onto a plane, reflection off a sphere and off a normal-interpolated
 // triangle, refraction through a glass sphere and a normal-interpolated triangle; the error of
 // a forward difference halves with its offset. Plus texture-coordinate derivatives against the
-// analytic perspective mapping, the stable 2×2 eigen-decomposition, the anisotropy clamp, and stiff
-// cases that must stay finite.
+// analytic perspective mapping, the stable 2×2 eigen-decomposition, the anisotropy clamp, the
+// widened footprint and the compensated inverse against double precision, and stiff cases that
+// must stay finite.
 
 #include "common/footprint.h"
 
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <random>
 #include <vector>
 
 namespace mrt {
@@ -402,6 +404,72 @@ TEST(RayDifferential, StiffCasesStayFiniteAndBounded) {
     RayDifferential broken;
     broken.dd_dx = Vec3f(nan, 0, 0);
     EXPECT_TRUE(broken.reflect(d, Vec3f(0, 1, 0), Vec3f::Zero(), Vec3f::Zero()).finite());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Widening and inverting footprints (common/point_weight.h reads both)
+
+Eigen::Matrix2d squared(const Mat2f& f) {
+    const Eigen::Matrix2d d = f.cast<double>();
+    return d * d.transpose();
+}
+
+TEST(FootprintWidening, AddsTheSquaredMatricesInClosedForm) {
+    std::mt19937_64 rng(1);
+    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+    for (int i = 0; i < 2000; ++i) {
+        Mat2f f;
+        f << uniform(rng), uniform(rng), uniform(rng), uniform(rng);
+        if (i % 4 == 1) {
+            f.col(1) = f.col(0) * (1.0f + 1e-4f * uniform(rng));  // nearly collinear columns
+        }
+        if (i % 4 == 2) {
+            f *= 1e-3f;  // radius dominates
+        }
+        const float radius = i % 4 == 3 ? 0.0f : std::abs(uniform(rng));
+        const Mat2f g = FootprintCone::widened(f, radius);
+        const Eigen::Matrix2d expected =
+            squared(f) + static_cast<double>(radius) * radius * Eigen::Matrix2d::Identity();
+        // Float rounding of F·Fᵀ and of the root: a few ulps of the largest entry.
+        EXPECT_LE((squared(g) - expected).norm(), 1e-5 * std::max(expected.norm(), 1e-30))
+            << f << "\nradius " << radius;
+        EXPECT_EQ(g(0, 1), g(1, 0));
+    }
+    EXPECT_EQ(FootprintCone::widened(Mat2f::Zero(), 0.0f), Mat2f::Zero());
+    Mat2f infinite = Mat2f::Identity();
+    infinite(0, 1) = std::numeric_limits<float>::infinity();
+    EXPECT_EQ(FootprintCone::widened(infinite, 1.0f), Mat2f::Zero());
+}
+
+TEST(FootprintInverse, MatchesADoubleInverseEvenForNearlyCollinearColumns) {
+    std::mt19937_64 rng(2);
+    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+    for (int i = 0; i < 2000; ++i) {
+        Mat2f f;
+        f << uniform(rng), uniform(rng), uniform(rng), uniform(rng);
+        if (i % 2 == 1) {
+            f.col(1) = f.col(0) + 1e-3f * Vec2f(uniform(rng), uniform(rng));
+        }
+        const Eigen::Matrix2d d = f.cast<double>();
+        const double det = d.determinant();
+        const FootprintInverse inverse = FootprintCone::inverse(f);
+        // The compensated determinant is exact to a few ulps of the products, whatever the
+        // cancellation; the inverse inherits the conditioning, |F|²/|det F|.
+        EXPECT_NEAR(inverse.abs_det, std::abs(det),
+                    4e-7 * d.cwiseAbs().maxCoeff() * d.cwiseAbs().maxCoeff());
+        const double condition = d.squaredNorm() / std::abs(det);
+        EXPECT_LE((inverse.inverse.cast<double>() * d - Eigen::Matrix2d::Identity()).norm(),
+                  1e-6 * condition + 1e-6)
+            << f;
+    }
+    Mat2f singular;
+    singular << 1.0f, 2.0f, 2.0f, 4.0f;
+    EXPECT_EQ(FootprintCone::inverse(singular).abs_det, 0.0f);
+    EXPECT_EQ(FootprintCone::inverse(singular).inverse, Mat2f::Zero());
+    EXPECT_EQ(FootprintCone::inverse(Mat2f::Identity() * 1e-30f).abs_det, 0.0f);  // 1/det = inf
+    Mat2f nan = Mat2f::Identity();
+    nan(1, 0) = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_EQ(FootprintCone::inverse(nan).abs_det, 0.0f);
 }
 
 }  // namespace

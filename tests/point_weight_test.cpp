@@ -7,7 +7,7 @@
 // to 80°, at most kPointWeightMaxInteriorSum, about half the interior's on a straight boundary
 // and exactly zero away from the surface. Interior, boundary and outside are decided by
 // geometry (the plane's edges, the sphere's silhouette, ray casts against the bunny's
-// triangles), not by the points. Plus the two footprint helpers the weights use.
+// triangles), not by the points.
 
 #include "common/point_weight.h"
 #include "common/footprint.h"
@@ -37,72 +37,6 @@ namespace {
 
 /// The traversal's anisotropy clamp (Wand §5.1: 1/4–1/16; the brief of the cone tracer: 1/8).
 constexpr float kMaxAnisotropy = 8.0f;
-
-// ---------------------------------------------------------------------------------------------
-// The footprint helpers
-
-Eigen::Matrix2d squared(const Mat2f& f) {
-    const Eigen::Matrix2d d = f.cast<double>();
-    return d * d.transpose();
-}
-
-TEST(FootprintWidening, AddsTheSquaredMatricesInClosedForm) {
-    std::mt19937_64 rng(1);
-    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
-    for (int i = 0; i < 2000; ++i) {
-        Mat2f f;
-        f << uniform(rng), uniform(rng), uniform(rng), uniform(rng);
-        if (i % 4 == 1) {
-            f.col(1) = f.col(0) * (1.0f + 1e-4f * uniform(rng));  // nearly collinear columns
-        }
-        if (i % 4 == 2) {
-            f *= 1e-3f;  // radius dominates
-        }
-        const float radius = i % 4 == 3 ? 0.0f : std::abs(uniform(rng));
-        const Mat2f g = FootprintCone::widened(f, radius);
-        const Eigen::Matrix2d expected =
-            squared(f) + static_cast<double>(radius) * radius * Eigen::Matrix2d::Identity();
-        // Float rounding of F·Fᵀ and of the root: a few ulps of the largest entry.
-        EXPECT_LE((squared(g) - expected).norm(), 1e-5 * std::max(expected.norm(), 1e-30))
-            << f << "\nradius " << radius;
-        EXPECT_EQ(g(0, 1), g(1, 0));
-    }
-    EXPECT_EQ(FootprintCone::widened(Mat2f::Zero(), 0.0f), Mat2f::Zero());
-    Mat2f infinite = Mat2f::Identity();
-    infinite(0, 1) = std::numeric_limits<float>::infinity();
-    EXPECT_EQ(FootprintCone::widened(infinite, 1.0f), Mat2f::Zero());
-}
-
-TEST(FootprintInverse, MatchesADoubleInverseEvenForNearlyCollinearColumns) {
-    std::mt19937_64 rng(2);
-    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
-    for (int i = 0; i < 2000; ++i) {
-        Mat2f f;
-        f << uniform(rng), uniform(rng), uniform(rng), uniform(rng);
-        if (i % 2 == 1) {
-            f.col(1) = f.col(0) + 1e-3f * Vec2f(uniform(rng), uniform(rng));
-        }
-        const Eigen::Matrix2d d = f.cast<double>();
-        const double det = d.determinant();
-        const FootprintInverse inverse = FootprintCone::inverse(f);
-        // The compensated determinant is exact to a few ulps of the products, whatever the
-        // cancellation; the inverse inherits the conditioning, |F|²/|det F|.
-        EXPECT_NEAR(inverse.abs_det, std::abs(det),
-                    4e-7 * d.cwiseAbs().maxCoeff() * d.cwiseAbs().maxCoeff());
-        const double condition = d.squaredNorm() / std::abs(det);
-        EXPECT_LE((inverse.inverse.cast<double>() * d - Eigen::Matrix2d::Identity()).norm(),
-                  1e-6 * condition + 1e-6)
-            << f;
-    }
-    Mat2f singular;
-    singular << 1.0f, 2.0f, 2.0f, 4.0f;
-    EXPECT_EQ(FootprintCone::inverse(singular).abs_det, 0.0f);
-    EXPECT_EQ(FootprintCone::inverse(singular).inverse, Mat2f::Zero());
-    EXPECT_EQ(FootprintCone::inverse(Mat2f::Identity() * 1e-30f).abs_det, 0.0f);  // 1/det = inf
-    Mat2f nan = Mat2f::Identity();
-    nan(1, 0) = std::numeric_limits<float>::quiet_NaN();
-    EXPECT_EQ(FootprintCone::inverse(nan).abs_det, 0.0f);
-}
 
 // ---------------------------------------------------------------------------------------------
 // Ideal lattices: the analytic integral
