@@ -11,29 +11,19 @@
 // in [t − r, t + r]. The points are weighed with the footprint F(t') = start_dev + t'·incr_dev
 // clamped to the anisotropy limit A and widened by the points' kernel w (common/
 // point_weight.h); that ellipse lies inside the one of F·Fᵀ + (‖F‖²/A² + w²)·I, the clamp
-// raising the minor axis to ‖F‖/A at most. Along a unit direction e of the plane the clip
-// ellipse (ρ² = ln 50) then reaches at most ρ·√(|F(t')ᵀe|² + ‖F(t')‖²/A² + w²): the norm of
-// a vector of norms of affine functions of t', convex in t', so its largest value over the
-// sphere's depths is at one end. With e the principal axes of the footprint at the far end,
-// the cone's cross-sections over those depths lie in the rectangle |x·eᵢ| ≤ hᵢ, and the disc
-// misses it when |x·eᵢ| > hᵢ + r for an axis i (the paper's square around the projected
-// sphere).
+// raising the minor axis to ‖F‖/A at most (‖F‖ the spectral norm, bounded here by the
+// Frobenius norm). Along a unit direction e of the plane the clip ellipse (ρ² = ln 50) then
+// reaches at most ρ·√(|F(t')ᵀe|² + ‖F(t')‖_F²/A² + w²): the norm of a vector of affine
+// functions of t', convex in t', so its largest value over the sphere's depths is at one end. With
+// e the principal axes of the footprint at the far end, the cone's cross-sections over those depths
+// lie in the rectangle |x·eᵢ| ≤ hᵢ, and the disc misses it when |x·eᵢ| > hᵢ + r for an axis i (the
+// paper's square around the projected sphere).
 
 #include "common/footprint.h"
 #include "common/math.h"
-
-#include <iosfwd>
+#include "trace/cone_ray.h"
 
 namespace mrt {
-
-/// A bounding sphere in the coordinates of a ray cone: `t` along the unit direction from the
-/// ray's origin, `offset` along the ray's u and v axes (FootprintCone::u, v), radius in the same
-/// units.
-struct SphereInRayFrame {
-    float t = 0.0f;
-    Vec2f offset = Vec2f::Zero();
-    float radius = 0.0f;
-};
 
 /// Whether the sphere may touch the part t ∈ [t_min, t_max] of `cone`, whose footprints are
 /// clamped to `max_anisotropy` (≥ 1) and widened by `widening` (the radius of the points'
@@ -41,7 +31,5 @@ struct SphereInRayFrame {
 /// cannot. Non-finite input is answered true, so a damaged value never hides geometry.
 bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
                            float max_anisotropy, float widening, float t_min, float t_max);
-
-std::ostream& operator<<(std::ostream& os, const SphereInRayFrame& s);
 
 }  // namespace mrt

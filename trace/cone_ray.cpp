@@ -13,4 +13,9 @@ std::ostream& operator<<(std::ostream& os, const ConeRay& ray) {
               << "}";
 }
 
+std::ostream& operator<<(std::ostream& os, const SphereInRayFrame& s) {
+    return os << "SphereInRayFrame{t " << s.t << ", offset (" << s.offset.x() << ", "
+              << s.offset.y() << "), radius " << s.radius << "}";
+}
+
 }  // namespace mrt

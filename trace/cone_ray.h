@@ -2,18 +2,35 @@
 // A ray cone in one space (the world, or an instance's object space) and the cone–point
 // intersection of Wand & Straßer §4.3: a surfel expressed in ray coordinates — its depth t along
 // the unit direction and its offset along the footprint's u and v axes — and weighed with the
-// footprint at the node's depth (common/point_weight.h).
+// footprint at the node's depth (common/point_weight.h). The ray-coordinate types here are what
+// the cone kernels (trace/cone_bounds.h, trace/cone_triangle.h) take.
 
 #include "common/footprint.h"
 #include "common/math.h"
 #include "common/point_weight.h"
-#include "trace/cone_bounds.h"
-#include "trace/cone_triangle.h"
 
 #include <iosfwd>
 #include <optional>
 
 namespace mrt {
+
+/// A vertex in the coordinates of a ray cone: `t` along the unit direction, `offset` along the
+/// cone's u and v axes.
+struct VertexInRayFrame {
+    float t = 0.0f;
+    Vec2f offset = Vec2f::Zero();
+};
+
+/// A bounding sphere in the coordinates of a ray cone: `t` along the unit direction from the
+/// ray's origin, `offset` along the ray's u and v axes (FootprintCone::u, v), radius in the same
+/// units.
+struct SphereInRayFrame {
+    float t = 0.0f;
+    Vec2f offset = Vec2f::Zero();
+    float radius = 0.0f;
+};
+
+std::ostream& operator<<(std::ostream& os, const SphereInRayFrame& s);
 
 struct ConeRay {
     Vec3f origin = Vec3f::Zero();      ///< Apex of the ray's axis (this space).

@@ -26,6 +26,7 @@
 
 #include "common/footprint.h"
 #include "common/math.h"
+#include "trace/cone_ray.h"
 
 #include <array>
 #include <iosfwd>
@@ -34,13 +35,6 @@
 namespace mrt {
 
 enum class TriangleWeight { Paper, Coverage };
-
-/// A vertex in the coordinates of a ray cone: `t` along the unit direction, `offset` along the
-/// cone's u and v axes.
-struct VertexInRayFrame {
-    float t = 0.0f;
-    Vec2f offset = Vec2f::Zero();
-};
 
 /// How the cone is seen at a depth: the map into its unit Gaussian's coordinates.
 struct GaussianFrame {
