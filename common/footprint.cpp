@@ -163,7 +163,8 @@ SymmetricEigen2 symmetric_eigen2(float a, float b, float c) {
     }
     const double mean = 0.5 * (static_cast<double>(a) + c);
     const double half_difference = 0.5 * (static_cast<double>(a) - c);
-    const double radius = std::hypot(half_difference, static_cast<double>(b));
+    // Squares of floats cannot overflow a double: no need for hypot's scaling.
+    const double radius = std::sqrt(half_difference * half_difference + static_cast<double>(b) * b);
     const double major = mean + radius;
     // The smaller root from the determinant: mean − radius cancels catastrophically for thin
     // ellipses.
@@ -171,8 +172,14 @@ SymmetricEigen2 symmetric_eigen2(float a, float b, float c) {
     const double minor = major > 0.0 ? det / major : mean - radius;
     e.major = static_cast<float>(major);
     e.minor = static_cast<float>(std::max(0.0, std::min(minor, major)));
-    const double angle = 0.5 * std::atan2(2.0 * b, static_cast<double>(a) - c);
-    e.major_axis = Vec2f(static_cast<float>(std::cos(angle)), static_cast<float>(std::sin(angle)));
+    // The major axis from (A − λ·I)·x = 0, written with whichever of its two rows does not
+    // cancel: (half_difference + radius, b) when a ≥ c, (b, radius − half_difference) when not.
+    // No trigonometry (this runs for every node a cone visits); equal eigenvalues give x.
+    const Vec2d axis = half_difference >= 0.0
+                           ? Vec2d(half_difference + radius, static_cast<double>(b))
+                           : Vec2d(static_cast<double>(b), radius - half_difference);
+    const double length = axis.norm();
+    e.major_axis = length > 0.0 ? Vec2f((axis / length).cast<float>()) : Vec2f(1.0f, 0.0f);
     e.minor_axis = Vec2f(-e.major_axis.y(), e.major_axis.x());
     return e;
 }
@@ -207,11 +214,19 @@ float FootprintCone::min_diameter(float t) const {
 }
 
 Mat2f FootprintCone::clamp_anisotropy(const Mat2f& footprint, float max_anisotropy) {
-    const SymmetricEigen2 e = ellipse_of(footprint);
+    SymmetricEigen2 e;
+    return clamp_anisotropy(footprint, max_anisotropy, e);
+}
+
+Mat2f FootprintCone::clamp_anisotropy(const Mat2f& footprint, float max_anisotropy,
+                                      SymmetricEigen2& clamped_ellipse) {
+    SymmetricEigen2& e = clamped_ellipse;
+    e = ellipse_of(footprint);
     const float floor = e.major / (max_anisotropy * max_anisotropy);
     if (e.minor >= floor) {
         return footprint;
     }
+    e.minor = floor;
     // Same ellipse axes, minor widened: columns along the axes (the ellipse is F·Fᵀ, so the
     // pixel-axis pairing of the columns does not matter to any consumer).
     Mat2f clamped;
@@ -220,11 +235,10 @@ Mat2f FootprintCone::clamp_anisotropy(const Mat2f& footprint, float max_anisotro
     return clamped;
 }
 
-Mat2f FootprintCone::widened(const Mat2f& footprint, float radius) {
-    const Mat2f f = footprint * footprint.transpose();
-    const float a = f(0, 0) + radius * radius;
-    const float b = 0.5f * (f(0, 1) + f(1, 0));
-    const float c = f(1, 1) + radius * radius;
+namespace {
+
+/// The square root of the symmetric positive semi-definite [[a, b], [b, c]].
+Mat2f symmetric_root(float a, float b, float c) {
     // The square root of a symmetric positive semi-definite 2×2 matrix C is (C + s·I)/τ with
     // s = √det C and τ = √(tr C + 2s) (Cayley–Hamilton): no eigen-decomposition, and every
     // term is a sum of non-negative numbers except det C, taken without cancellation.
@@ -236,6 +250,32 @@ Mat2f FootprintCone::widened(const Mat2f& footprint, float radius) {
     Mat2f root;
     root << (a + s) / tau, b / tau, b / tau, (c + s) / tau;
     return root;
+}
+
+}  // namespace
+
+Mat2f FootprintCone::widened(const Mat2f& footprint, float radius) {
+    const Mat2f f = footprint * footprint.transpose();
+    return symmetric_root(f(0, 0) + radius * radius, 0.5f * (f(0, 1) + f(1, 0)),
+                          f(1, 1) + radius * radius);
+}
+
+Mat2f FootprintCone::convolved(const Mat2f& f, const Mat2f& b) {
+    const Mat2f sum = f * f.transpose() + b * b.transpose();
+    return symmetric_root(sum(0, 0), 0.5f * (sum(0, 1) + sum(1, 0)), sum(1, 1));
+}
+
+void FootprintCone::add_blur(const Mat2f& start, const Mat2f& incr) {
+    if (!blurred) {
+        blur_start = start;
+        blur_incr = incr;
+        blurred = true;
+        return;
+    }
+    // Two linear blurs do not sum to one linear blur: combined this way the sum of squares is
+    // exact at t = 0 and as t → ∞, approximate in between. No tracer path adds a second one.
+    blur_start = convolved(blur_start, start);
+    blur_incr = convolved(blur_incr, incr);
 }
 
 FootprintInverse FootprintCone::inverse(const Mat2f& footprint) {

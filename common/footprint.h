@@ -129,11 +129,36 @@ struct FootprintCone {
     Vec3f v = Vec3f::UnitY();
     Mat2f start_dev = Mat2f::Zero();
     Mat2f incr_dev = Mat2f::Zero();
+    /// A second linear cone B(t) = blur_start + t·blur_incr on the same axis whose Gaussian is
+    /// convolved with the first (Wand §4.2: "adding the squared footprint matrices"): the
+    /// light's ellipse of a shadow cone, the radial growth of a rough reflection, the lens
+    /// aperture of depth of field. Zero (`blurred` false) for a plain cone.
+    Mat2f blur_start = Mat2f::Zero();
+    Mat2f blur_incr = Mat2f::Zero();
+    bool blurred = false;
 
     /// Projects a ray's differentials onto the plane orthogonal to its unit direction d.
     static FootprintCone from_differential(const Vec3f& d, const RayDifferential& rd);
 
-    Mat2f at(float t) const { return start_dev + t * incr_dev; }
+    /// The pixel footprint F(t) = start_dev + t·incr_dev alone, without the blur.
+    Mat2f pixel_at(float t) const { return start_dev + t * incr_dev; }
+    /// The footprint at t: F(t), or for a blurred cone the symmetric G with
+    /// G·Gᵀ = F(t)·F(t)ᵀ + B(t)·B(t)ᵀ (only G·Gᵀ is meaningful, as for clamp_anisotropy).
+    Mat2f at(float t) const {
+        const Mat2f f = pixel_at(t);
+        if (!blurred) {
+            return f;
+        }
+        return convolved(f, blur_start + t * blur_incr);
+    }
+
+    /// Adds the cone B(t) = start + t·incr to the blur (squared matrices add, so blurs
+    /// accumulate: a rough reflection of a blurred ray stays blurred).
+    void add_blur(const Mat2f& start, const Mat2f& incr);
+
+    /// The symmetric square root of F·Fᵀ + B·Bᵀ, in closed form: the Gaussian of F convolved
+    /// with the Gaussian of B.
+    static Mat2f convolved(const Mat2f& f, const Mat2f& b);
 
     /// Axes of the footprint ellipse at t (the image of the unit pixel disc): the eigen-
     /// decomposition of F·Fᵀ; diameters are 2·√eigenvalue.
@@ -146,6 +171,9 @@ struct FootprintCone {
     /// Wand §5.1: the minor axis grown so that major/minor ≤ max_anisotropy, keeping the
     /// major axis: returns F' with the same major axis and a wider minor one.
     static Mat2f clamp_anisotropy(const Mat2f& footprint, float max_anisotropy);
+    /// The same, also giving the clamped footprint's ellipse (one decomposition for both).
+    static Mat2f clamp_anisotropy(const Mat2f& footprint, float max_anisotropy,
+                                  SymmetricEigen2& clamped_ellipse);
 
     /// The footprint convolved with the isotropic Gaussian exp(−|x|²/radius²) (radius in ray
     /// u/v units): Gaussians convolve by adding their squared matrices (Wand §4.2, after

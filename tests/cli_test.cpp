@@ -176,12 +176,30 @@ TEST(MrtTraceCli, AdaptiveDistributedStatsAndWhittedHasNoStandardError) {
 
 TEST(MrtTraceCli, OptionsAMethodDoesNotReadAreRefused) {
     const std::string base = scene_path() + " -o x.png --width 8 ";
-    for (const char* args : {"--time-budget 1", "--reference", "--spp-max 4", "--spp-initial 2",
-                             "--target-error 0.1"}) {
+    for (const char* args :
+         {"--reference", "--spp-max 4", "--spp-initial 2", "--target-error 0.1"}) {
         const TraceRun run = run_trace(base + args);
         EXPECT_EQ(run.exit_code, 2) << args;
         EXPECT_NE(run.output.find("only the distributed method"), std::string::npos) << run.output;
         EXPECT_EQ(count_lines(run.output), 1) << run.output;
+    }
+    {
+        const TraceRun run = run_trace(base + "--time-budget 1");
+        EXPECT_EQ(run.exit_code, 2);
+        EXPECT_NE(run.output.find("only the distributed and the cone methods"), std::string::npos)
+            << run.output;
+    }
+    // The cone methods' own options, and what they refuse.
+    for (const char* args : {"--max-anisotropy 4", "--no-level-blend", "--exact-vertex-frames",
+                             "--triangle-weight paper"}) {
+        const TraceRun run = run_trace(base + args);
+        EXPECT_EQ(run.exit_code, 2) << args;
+        EXPECT_NE(run.output.find("only the cone methods"), std::string::npos) << run.output;
+    }
+    {
+        const TraceRun run = run_trace(base + "--method cone --spp 4");
+        EXPECT_EQ(run.exit_code, 2);
+        EXPECT_NE(run.output.find("one cone per pixel"), std::string::npos) << run.output;
     }
     const std::string distributed = base + "--method distributed ";
     EXPECT_EQ(run_trace(distributed + "--reference --time-budget 1").exit_code, 2);

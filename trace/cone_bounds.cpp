@@ -14,9 +14,17 @@ namespace {
 /// eigen-decomposition per end — the test runs for every node a cone visits.
 float reach_along(const FootprintCone& cone, float t, const Vec2f& e,
                   float inverse_anisotropy_squared, float widening_squared) {
-    const Mat2f f = cone.at(t);
-    return std::sqrt((f.transpose() * e).squaredNorm() +
-                     f.squaredNorm() * inverse_anisotropy_squared + widening_squared);
+    // A blurred cone's G·Gᵀ = F·Fᵀ + B·Bᵀ: both parts are affine in t, so the bound stays
+    // the norm of a vector of affine functions of t (convex), without the square root of G.
+    const Mat2f f = cone.pixel_at(t);
+    float along = (f.transpose() * e).squaredNorm();
+    float frobenius = f.squaredNorm();
+    if (cone.blurred) {
+        const Mat2f b = cone.blur_start + t * cone.blur_incr;
+        along += (b.transpose() * e).squaredNorm();
+        frobenius += b.squaredNorm();
+    }
+    return std::sqrt(along + frobenius * inverse_anisotropy_squared + widening_squared);
 }
 
 }  // namespace
@@ -26,8 +34,8 @@ bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& 
     const float near = std::max(sphere.t - sphere.radius, t_min);
     const float far = std::min(sphere.t + sphere.radius, t_max);
     if (!std::isfinite(near) || !std::isfinite(far) || !sphere.offset.allFinite() ||
-        !cone.start_dev.allFinite() || !cone.incr_dev.allFinite() || !std::isfinite(widening) ||
-        !(max_anisotropy >= 1.0f)) {
+        !cone.start_dev.allFinite() || !cone.incr_dev.allFinite() || !cone.blur_start.allFinite() ||
+        !cone.blur_incr.allFinite() || !std::isfinite(widening) || !(max_anisotropy >= 1.0f)) {
         return true;
     }
     if (near > far) {

@@ -44,6 +44,8 @@ struct GaussianFrame {
     /// The frame of footprint F (already anisotropy-clamped); a zero or non-finite F gives
     /// zero inverse semi-axes (nothing maps anywhere but the origin).
     static GaussianFrame of(const Mat2f& footprint);
+    /// The same from the footprint's ellipse (FootprintCone::ellipse_of), already known.
+    static GaussianFrame of_ellipse(const SymmetricEigen2& ellipse);
     Vec2f map(const Vec2f& offset) const;
 };
 

@@ -1,10 +1,15 @@
 // mrt-trace: renders a scene with one of the project's tracers.
 
 #include "common/error.h"
+#include "common/hierarchy_file.h"
 #include "common/image.h"
+#include "common/progress.h"
 #include "common/scene_loader.h"
 #include "common/stopwatch.h"
 #include "common/tool_main.h"
+#include "preprocess/hierarchy_pack.h"
+#include "preprocess/scene_hierarchy.h"
+#include "trace/cone_tracer.h"
 #include "trace/distributed.h"
 #include "trace/pixel_filter.h"
 #include "trace/render_stats.h"
@@ -19,6 +24,7 @@
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <thread>
@@ -48,7 +54,16 @@ struct Arguments {
     std::uint64_t seed = 0;
     std::filesystem::path stats;
     bool quiet = false;
+    // The cone tracers.
+    float max_anisotropy = 8.0f;
+    bool no_level_blend = false;
+    bool exact_vertex_frames = false;
+    std::string triangle_weight = "coverage";
 };
+
+bool is_cone(const std::string& method) {
+    return method == "cone" || method == "cone-classic";
+}
 
 /// Image size: the camera's, or the requested one; one given side keeps the camera's aspect.
 std::pair<int, int> image_size(const mrt::Camera& camera, const Arguments& args) {
@@ -69,16 +84,33 @@ std::pair<int, int> image_size(const mrt::Camera& camera, const Arguments& args)
 }
 
 constexpr int kDefaultReferenceSpp = 1024;
+/// cone-classic stops itself after this many seconds unless given --time-budget.
+constexpr double kClassicDefaultBudget = 600.0;
 constexpr int kMaxSpp = 65536;
 
 /// Options that only some methods read must not be silently ignored by the others.
 void check_method_options(const CLI::App& app, const Arguments& args) {
+    if (!is_cone(args.method)) {
+        for (const char* option : {"--max-anisotropy", "--no-level-blend", "--exact-vertex-frames",
+                                   "--triangle-weight"}) {
+            if (app.count(option) > 0) {
+                throw CLI::ValidationError(option, "only the cone methods take it");
+            }
+        }
+    } else {
+        if (app.count("--spp") > 0) {
+            throw CLI::ValidationError("--spp", "the cone methods trace one cone per pixel");
+        }
+    }
     if (args.method != "distributed") {
-        for (const char* option :
-             {"--spp-initial", "--spp-max", "--target-error", "--time-budget", "--reference"}) {
+        for (const char* option : {"--spp-initial", "--spp-max", "--target-error", "--reference"}) {
             if (app.count(option) > 0) {
                 throw CLI::ValidationError(option, "only the distributed method takes it");
             }
+        }
+        if (!is_cone(args.method) && app.count("--time-budget") > 0) {
+            throw CLI::ValidationError("--time-budget",
+                                       "only the distributed and the cone methods take it");
         }
         return;
     }
@@ -134,16 +166,67 @@ int run(const Arguments& args) {
 
     // Building covers everything prepared before the first ray: the BVH and the mip-mapped
     // textures, so render times compare tracing alone.
+    // The cone tracers read the hierarchy file instead of a BVH.
     const auto build_start = Clock::now();
-    const mrt::SceneBvh bvh(scene);
+    std::optional<mrt::SceneBvh> bvh;
+    std::optional<mrt::HierarchyFile> file;
+    std::optional<mrt::HierarchyData> built;
+    std::optional<mrt::ConeGeometry> geometry;
     const mrt::TextureSampler textures(scene, options.texture_filter);
+    if (is_cone(args.method)) {
+        if (args.scene.extension() == ".mrh") {
+            file.emplace(mrt::HierarchyFile::open(args.scene));
+            geometry.emplace(file->view(), scene, textures);
+        } else {
+            // A scene file: its hierarchy is built here with mrt-preprocess's defaults, and
+            // counted as build time (mrt-preprocess writes it once for many renders).
+            const std::unique_ptr<mrt::TextureSampler> prefilter =
+                scene.textures.empty()
+                    ? nullptr
+                    : std::make_unique<mrt::TextureSampler>(scene, mrt::TextureFilter::None);
+            mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene, false),
+                                   args.quiet);
+            const mrt::SceneHierarchy hierarchy =
+                mrt::build_scene_hierarchy(scene, prefilter.get(), {}, false, &progress);
+            progress.finish();
+            built.emplace(mrt::pack_hierarchy(hierarchy, scene.materials, "{}", "{}"));
+            geometry.emplace(built->view(), scene, textures);
+        }
+    } else {
+        bvh.emplace(scene);
+    }
     const double build_seconds = seconds_since(build_start);
 
+    std::optional<mrt::ConeRenderStats> cone_stats;
     const auto render_start = Clock::now();
-    mrt::RenderOutput out = args.method == "distributed"
-                                ? mrt::render_distributed(scene, bvh, textures, options)
-                                : mrt::render_whitted(scene, bvh, textures, options);
+    mrt::RenderOutput out;
+    if (is_cone(args.method)) {
+        mrt::ConeOptions cone;
+        cone.traversal.points = args.method == "cone";
+        cone.traversal.blend_levels = !args.no_level_blend;
+        cone.traversal.exact_vertex_frames = args.exact_vertex_frames;
+        cone.traversal.triangle_weight = args.triangle_weight == "paper"
+                                             ? mrt::TriangleWeight::Paper
+                                             : mrt::TriangleWeight::Coverage;
+        cone.traversal.max_anisotropy = args.max_anisotropy;
+        cone.time_budget = args.time_budget > 0.0
+                               ? args.time_budget
+                               : (args.method == "cone-classic" ? kClassicDefaultBudget : 0.0);
+        options.time_budget = cone.time_budget;
+        mrt::ConeRenderOutput result = mrt::render_cone(*geometry, options, cone, args.method);
+        out = std::move(result.render);
+        cone_stats = result.stats;
+    } else if (args.method == "distributed") {
+        out = mrt::render_distributed(scene, *bvh, textures, options);
+    } else {
+        out = mrt::render_whitted(scene, *bvh, textures, options);
+    }
     out.render_seconds = seconds_since(render_start);
+    if (cone_stats && cone_stats->stopped && !args.quiet) {
+        std::cerr << "mrt-trace: " << args.method << " stopped after its time budget of "
+                  << options.time_budget << " s with " << cone_stats->pixels_done << " of "
+                  << cone_stats->pixels << " pixels done; the rest of the image is black\n";
+    }
 
     mrt::write_image(args.output, out.image);
 
@@ -170,6 +253,8 @@ int run(const Arguments& args) {
         stats.rays = out.rays;
         stats.unique_triangles = scene.unique_triangle_count();
         stats.instanced_triangles = scene.instanced_triangle_count();
+        stats.cone = cone_stats;
+        stats.stopped = cone_stats && cone_stats->stopped;
         mrt::write_render_stats(args.stats, stats);
     }
     if (!args.quiet && isatty(STDERR_FILENO)) {
@@ -188,16 +273,18 @@ int run(const Arguments& args) {
 
 int main(int argc, char** argv) {
     CLI::App app{
-        "mrt-trace: render a scene with the conventional (whitted) or the adaptive "
-        "distributed ray tracer",
+        "mrt-trace: render a scene with the conventional (whitted), the adaptive "
+        "distributed ray tracer or the multi-resolution cone tracer",
         "mrt-trace"};
     Arguments args;
     app.add_option("scene", args.scene, "Scene file (.json) or hierarchy file (.mrh)")->required();
     app.add_option("-o,--output", args.output, "Output image (.exr linear, .png/.jpg sRGB)")
         ->required();
     app.add_option("--method", args.method,
-                   "Tracer: whitted (conventional) or distributed (adaptive stochastic)")
-        ->check(CLI::IsMember({"whitted", "distributed"}))
+                   "Tracer: whitted (conventional), distributed (adaptive stochastic), cone "
+                   "(multi-resolution cone tracing of a .mrh file) or cone-classic (the same "
+                   "against every triangle, no points)")
+        ->check(CLI::IsMember({"whitted", "distributed", "cone", "cone-classic"}))
         ->default_val("whitted");
     app.add_option("--spp", args.spp,
                    "Samples per pixel: whitted's fixed jittered grid (default 1, the pixel "
@@ -218,7 +305,8 @@ int main(int argc, char** argv) {
         ->default_val(0.005f);
     app.add_option("--time-budget", args.time_budget,
                    "distributed: refine where the variance is highest until SECONDS of "
-                   "rendering are spent")
+                   "rendering are spent; cone methods: stop cleanly after SECONDS with the "
+                   "pixels done (cone-classic: 600 unless given)")
         ->check(CLI::PositiveNumber);
     app.add_flag("--reference", args.reference,
                  "distributed: ground truth from --spp samples in independent stratified "
@@ -259,6 +347,22 @@ int main(int argc, char** argv) {
     app.add_option("--seed", args.seed, "Seed of the sample patterns")->default_val(0);
     app.add_option("--stats", args.stats, "Write run statistics as JSON to this file");
     app.add_flag("-q,--quiet", args.quiet, "No progress bar or summary");
+    app.add_option("--max-anisotropy", args.max_anisotropy,
+                   "cone methods: the footprint's minor axis is widened to at least 1/A of its "
+                   "major axis (Wand & Strasser 5.1)")
+        ->check(CLI::Range(1.0f, 1000.0f))
+        ->default_val(8.0f);
+    app.add_flag("--no-level-blend", args.no_level_blend,
+                 "cone: use the chosen level's points alone, not blended with the next finer "
+                 "level");
+    app.add_flag("--exact-vertex-frames", args.exact_vertex_frames,
+                 "cone methods: decompose the footprint at every triangle vertex instead of once "
+                 "per node (5.2)");
+    app.add_option("--triangle-weight", args.triangle_weight,
+                   "cone methods: coverage (the footprint Gaussian's mass over the triangle) or "
+                   "paper (exp(-(d-1/2)^2) of the closest point's distance, 4.5)")
+        ->check(CLI::IsMember({"coverage", "paper"}))
+        ->default_val("coverage");
 
     return mrt::run_tool(
         app, argc, argv, [&] { check_method_options(app, args); }, [&] { return run(args); });

@@ -17,9 +17,45 @@ std::ostream& operator<<(std::ostream& os, const RayCounters& c) {
               << c.shadow << "}";
 }
 
+namespace {
+
+nlohmann::json traversal_json(const ConeTraversalStats& s) {
+    return {{"cones", s.rays},
+            {"nodes_visited", s.nodes_visited},
+            {"spheres_tested", s.spheres_tested},
+            {"points_tested", s.points_tested},
+            {"points_hit", s.points_hit},
+            {"triangles_tested", s.triangles_tested},
+            {"triangles_hit", s.triangles_hit},
+            {"instances_entered", s.instances_entered},
+            {"nodes_culled_by_opacity", s.culled_by_opacity},
+            {"point_nodes", s.point_nodes},
+            {"mean_point_level",
+             s.level_weight > 0.0 ? nlohmann::json(s.level_sum / s.level_weight) : nullptr},
+            {"fragments_inserted", s.abuffer.inserted},
+            {"fragments_merged", s.abuffer.merged},
+            {"fragments_cascaded", s.abuffer.cascaded},
+            {"abuffer_forced_merges", s.abuffer.forced_merges},
+            {"abuffer_dropped", s.abuffer.dropped_insertions + s.abuffer.evicted_fragments}};
+}
+
+nlohmann::json cone_json(const ConeRenderStats& s) {
+    return {{"primary", traversal_json(s.primary)},
+            {"secondary", traversal_json(s.secondary)},
+            {"shadow", traversal_json(s.shadow)},
+            {"primary_traversal_thread_seconds", s.primary_seconds},
+            {"secondary_traversal_thread_seconds", s.secondary_seconds},
+            {"shadow_traversal_thread_seconds", s.shadow_seconds},
+            {"straddled_critical_angle", s.straddled_critical_angle},
+            {"pixels_done", s.pixels_done},
+            {"pixels", s.pixels}};
+}
+
+}  // namespace
+
 void write_render_stats(const std::filesystem::path& file, const RenderStats& stats) {
     const double rays = static_cast<double>(stats.rays.total());
-    const nlohmann::json j = {
+    nlohmann::json j = {
         {"method", stats.method},
         {"scene", stats.scene},
         {"width", stats.width},
@@ -49,7 +85,11 @@ void write_render_stats(const std::filesystem::path& file, const RenderStats& st
         {"unique_triangles", stats.unique_triangles},
         {"instanced_triangles", stats.instanced_triangles},
         {"peak_rss_bytes", peak_rss_bytes()},
+        {"stopped", stats.stopped},
     };
+    if (stats.cone) {
+        j["cone"] = cone_json(*stats.cone);
+    }
     write_file_atomically(file, j.dump(2) + "\n", "stats file");
 }
 

@@ -1,8 +1,10 @@
 #pragma once
 // The --stats JSON every tool writes. Key names are a contract other tools read:
 // load_seconds, build_seconds, render_seconds, rays, rays_per_second, peak_rss_bytes, filter,
-// passes, samples, mean_spp, std_error (null unless a reference estimated it).
+// passes, samples, mean_spp, std_error (null unless a reference estimated it), stopped (the
+// image is incomplete).
 
+#include "trace/cone_tracer.h"
 #include "trace/render.h"
 
 #include <cstdint>
@@ -33,6 +35,10 @@ struct RenderStats {
     std::optional<double> std_error;          ///< RMS standard error of a reference.
     std::uint64_t unique_triangles = 0;
     std::uint64_t instanced_triangles = 0;
+    /// The cone tracers: traversal counters and time per phase, under "cone".
+    std::optional<ConeRenderStats> cone;
+    /// The render stopped before every pixel was done (a time guard ran out): "stopped".
+    bool stopped = false;
 };
 
 /// Writes the stats as JSON (to a temporary name, renamed into place). Throws mrt::Error.

@@ -1,0 +1,377 @@
+#include "trace/cone_tracer.h"
+
+#include "common/camera_rays.h"
+#include "common/footprint.h"
+#include "common/point_weight.h"
+#include "trace/abuffer.h"
+#include "trace/cone_surface.h"
+#include "trace/film.h"
+#include "trace/shading.h"
+
+#include <tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <limits>
+#include <mutex>
+#include <thread>
+
+namespace mrt {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// How far past its start a cone leaving a surface is still taken to see that surface: the
+/// clip radius of its widened Gaussian over the sine of its elevation above the tangent plane,
+/// never below a tenth (grazing cones would otherwise start arbitrarily far out).
+constexpr float kSelfIntersectionFactor = 1.5f;
+constexpr float kMinimumElevation = 0.1f;
+
+/// Branches whose contribution to the pixel is below this are not traced (as the baselines').
+constexpr float kMinimumWeight = 1.0f / 2550.0f;
+
+float start_clearance(const Mat2f& start_footprint, float elevation, float half_interval) {
+    const float radius = std::sqrt(FootprintCone::ellipse_of(start_footprint).major);
+    return kSelfIntersectionFactor * std::sqrt(kPointWeightClipExponent) * radius /
+               std::max(std::abs(elevation), kMinimumElevation) +
+           half_interval;
+}
+
+/// The world vectors of a 2×2 footprint's columns in the cone's u/v frame.
+void footprint_vectors(const FootprintCone& cone, const Mat2f& f, Vec3f& x, Vec3f& y) {
+    x = cone.u * f(0, 0) + cone.v * f(1, 0);
+    y = cone.u * f(0, 1) + cone.v * f(1, 1);
+}
+
+/// A 2×2 footprint from two world vectors, in the frame of `cone`.
+Mat2f in_frame(const FootprintCone& cone, const Vec3f& x, const Vec3f& y) {
+    Mat2f f;
+    f << cone.u.dot(x), cone.u.dot(y), cone.v.dot(x), cone.v.dot(y);
+    return f;
+}
+
+/// Per-thread accumulators.
+struct ConeWork {
+    ConeRenderStats stats;
+    RayCounters rays;
+};
+
+class ConeTracer {
+  public:
+    ConeTracer(const ConeGeometry& geometry, const ConeTraversalOptions& options, int max_depth,
+               const std::atomic<bool>* stop)
+        : m_scene(geometry.scene()), m_traversal(geometry, options, stop), m_max_depth(max_depth) {}
+
+    enum class Kind { Primary, Secondary };
+
+    Rgb radiance(const ConeRay& ray, float t_min, int depth, float weight, Kind kind,
+                 ConeWork& work) const {
+        ABuffer<ConeSurface> buffer;
+        const auto start = Clock::now();
+        ConeTraversalStats& stats =
+            kind == Kind::Primary ? work.stats.primary : work.stats.secondary;
+        m_traversal.trace(ray, t_min, std::numeric_limits<float>::infinity(), buffer, stats);
+        stats.abuffer += buffer.stats();
+        const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        (kind == Kind::Primary ? work.stats.primary_seconds : work.stats.secondary_seconds) +=
+            seconds;
+        const CompositeResult result =
+            buffer.composite([&](const ConeSurface& surface, const Fragment<ConeSurface>& f) {
+                return shade(surface, f, ray, depth, weight * f.alpha(), work);
+            });
+        return result.radiance + result.transmittance * m_scene.background;
+    }
+
+  private:
+    /// The footprint of `ray` at depth t as a ray differential on the surface with unit normal
+    /// n: its columns projected along the ray onto the tangent plane (Igehy's transfer), and
+    /// the directional differentials (for a blurred cone, of the convolved footprint).
+    static RayDifferential at_surface(const ConeRay& ray, float t, const Vec3f& n) {
+        const FootprintCone& cone = ray.cone;
+        RayDifferential rd;
+        footprint_vectors(cone, cone.at(t), rd.dp_dx, rd.dp_dy);
+        Mat2f growth = cone.incr_dev;
+        if (cone.blurred) {
+            const float step = 0.01f * std::max(t, 1e-6f);
+            growth = (cone.at(t + step) - cone.at(t)) / step;
+        }
+        footprint_vectors(cone, growth, rd.dd_dx, rd.dd_dy);
+        return rd.transfer(ray.direction, 0.0f, n);
+    }
+
+    Rgb shade(const ConeSurface& s, const Fragment<ConeSurface>& fragment, const ConeRay& ray,
+              int depth, float weight, ConeWork& work) const {
+        const Vec3f& d = ray.direction;
+        const float t = fragment.depth();
+        const Vec3f p = ray.origin + t * d;
+        const Vec3f n = s.normal.squaredNorm() > 0.0f ? s.normal : Vec3f(-d);
+        const bool entering = n.dot(d) < 0.0f;
+        const Vec3f ns = entering ? n : Vec3f(-n);
+        const Mat3f shape = entering ? s.shape : Mat3f(-s.shape);
+        const float half_interval = 0.5f * (fragment.far - fragment.near);
+        const RayDifferential at_hit = at_surface(ray, t, ns);
+
+        Material material;
+        material.specular = s.specular;
+        material.phong_exponent = s.phong_exponent;
+        const float local = std::max(0.0f, 1.0f - s.reflectivity - s.transparency);
+        const Rgb albedo = s.diffuse * local;
+        Rgb result = m_scene.ambient * albedo;
+
+        const Vec3f wo = -d;
+        const auto add_light = [&](const LightSample& light, const EllipticalAreaLight* area) {
+            const float cosine = ns.dot(light.wi);
+            if (cosine <= 0.0f || (light.irradiance <= 0.0f).all()) {
+                return;
+            }
+            ++work.rays.shadow;
+            const float visible = visibility(p, at_hit, light, area, cosine, half_interval, work);
+            if (visible > 0.0f) {
+                result += visible * light.irradiance * cosine *
+                          phong_brdf(material, albedo, ns, light.wi, wo);
+            }
+        };
+        for (const PointLight& light : m_scene.point_lights) {
+            add_light(sample_point_light(light, p), nullptr);
+        }
+        for (const EllipticalAreaLight& light : m_scene.area_lights) {
+            add_light(sample_area_light_centre(light, p), &light);
+        }
+        if (depth >= m_max_depth) {
+            return result;
+        }
+
+        const Vec3f dn_dx = shape * at_hit.dp_dx;
+        const Vec3f dn_dy = shape * at_hit.dp_dy;
+        float reflect_weight = s.reflectivity;
+        if (s.transparency > 0.0f) {
+            const float eta = entering ? 1.0f / std::max(s.ior, 1e-3f) : s.ior;
+            const float cos_i = std::min(1.0f, -d.dot(ns));
+            const float k = 1.0f - eta * eta * (1.0f - cos_i * cos_i);
+            // k = 1 − η²(1 − cos²θ) across the footprint, to first order in the pixel offset:
+            // dk = 2η²·cos θ·d(cos θ), d(cos θ) = −(dD·N + D·dN). Over the footprint's Gaussian
+            // exp(−|x|²) the share with k > 0 is ½·erfc(−k / |∇k|).
+            const float dk_dx = -2.0f * eta * eta * cos_i * (at_hit.dd_dx.dot(ns) + d.dot(dn_dx));
+            const float dk_dy = -2.0f * eta * eta * cos_i * (at_hit.dd_dy.dot(ns) + d.dot(dn_dy));
+            const float spread = std::hypot(dk_dx, dk_dy);
+            float refracted = k > 0.0f ? 1.0f : 0.0f;
+            if (spread > 0.0f && std::isfinite(spread)) {
+                refracted = 0.5f * std::erfc(-k / spread);
+            }
+            if (refracted > 1e-3f && refracted < 1.0f - 1e-3f) {
+                ++work.stats.straddled_critical_angle;
+            }
+            reflect_weight += s.transparency * (1.0f - refracted);
+            const float share = s.transparency * refracted;
+            if (share > 0.0f && weight * share >= kMinimumWeight) {
+                // Past the critical angle at the centre the refracted part leaves along the
+                // surface: the critical direction.
+                Vec3f direction =
+                    refract(d, ns, eta).value_or(Vec3f((eta * d + eta * cos_i * ns).normalized()));
+                if (direction.dot(ns) > 0.0f) {
+                    direction -= 2.0f * direction.dot(ns) * ns;
+                }
+                const RayDifferential rd = at_hit.refract(d, ns, dn_dx, dn_dy, eta);
+                result += share * secondary(p, direction, rd, ns, s.roughness, half_interval, depth,
+                                            weight * share, work);
+            }
+        }
+        if (reflect_weight > 0.0f && weight * reflect_weight >= kMinimumWeight) {
+            Vec3f r = reflect(d, ns);
+            if (r.dot(ns) < 0.0f) {
+                r -= 2.0f * r.dot(ns) * ns;
+            }
+            const RayDifferential rd = at_hit.reflect(d, ns, dn_dx, dn_dy);
+            result += reflect_weight * secondary(p, r, rd, ns, s.roughness, half_interval, depth,
+                                                 weight * reflect_weight, work);
+        }
+        return result;
+    }
+
+    Rgb secondary(const Vec3f& p, const Vec3f& direction, const RayDifferential& rd,
+                  const Vec3f& ns, float roughness, float half_interval, int depth, float weight,
+                  ConeWork& work) const {
+        ++work.rays.secondary;
+        ConeRay ray;
+        ray.origin = p;
+        ray.direction = direction;
+        ray.cone = FootprintCone::from_differential(direction, rd);
+        if (roughness > 0.0f) {
+            // The Gaussian spread of the stochastic tracers' glossy directions
+            // (gaussian_spread_direction, σ = roughness per unit distance) is exp(−|x|²/b²)
+            // with b = √2·σ·t: a radial increment.
+            ray.cone.add_blur(Mat2f::Zero(), std::sqrt(2.0f) * roughness * Mat2f::Identity());
+        }
+        const float t_min = start_clearance(ray.cone.start_dev, direction.dot(ns), half_interval);
+        return radiance(ray, t_min, depth + 1, weight, Kind::Secondary, work);
+    }
+
+    /// The transmittance of the shadow cone from the fragment at p to the light.
+    float visibility(const Vec3f& p, const RayDifferential& at_hit, const LightSample& light,
+                     const EllipticalAreaLight* area, float cosine, float half_interval,
+                     ConeWork& work) const {
+        ConeRay ray;
+        ray.origin = p;
+        ray.direction = light.wi;
+        FootprintCone& cone = ray.cone;
+        orthonormal_basis(light.wi, cone.u, cone.v);
+        // The hit's footprint, shrinking to nothing at the light.
+        cone.start_dev = in_frame(cone, at_hit.dp_dx, at_hit.dp_dy);
+        cone.incr_dev = -cone.start_dev / light.distance;
+        if (area != nullptr) {
+            // The light's ellipse, from nothing at the hit; a uniform disc of radius a has
+            // the variance of the Gaussian exp(−|x|²/(a/√2)²).
+            const Mat2f ellipse = in_frame(cone, area->semi_axis_u, area->semi_axis_v);
+            cone.add_blur(Mat2f::Zero(), ellipse / (std::sqrt(2.0f) * light.distance));
+        }
+        const float t_min =
+            std::min(start_clearance(cone.start_dev, cosine, half_interval), 0.5f * light.distance);
+        ABuffer<ConeOpacity> buffer;
+        const auto start = Clock::now();
+        m_traversal.trace(ray, t_min, light.distance * 0.999f, buffer, work.stats.shadow);
+        work.stats.shadow.abuffer += buffer.stats();
+        work.stats.shadow_seconds += std::chrono::duration<double>(Clock::now() - start).count();
+        return buffer
+            .composite([](const ConeOpacity&, const Fragment<ConeOpacity>&) { return Rgb::Zero(); })
+            .transmittance;
+    }
+
+    const Scene& m_scene;
+    ConeTraversal m_traversal;
+    int m_max_depth;
+};
+
+/// Sets a flag after a delay, unless cancelled first: the time guard, which has to stop
+/// traversals that are already running (one pixel of classic cone tracing can take minutes).
+class Watchdog {
+  public:
+    Watchdog(double seconds, std::atomic<bool>& flag) : m_flag(flag) {
+        if (seconds > 0.0) {
+            m_thread = std::thread([this, seconds] {
+                std::unique_lock lock(m_mutex);
+                if (!m_cancel.wait_for(lock, std::chrono::duration<double>(seconds),
+                                       [this] { return m_done; })) {
+                    m_flag.store(true, std::memory_order_relaxed);
+                }
+            });
+        }
+    }
+    ~Watchdog() {
+        {
+            const std::lock_guard lock(m_mutex);
+            m_done = true;
+        }
+        m_cancel.notify_all();
+        if (m_thread.joinable()) {
+            m_thread.join();
+        }
+    }
+    Watchdog(const Watchdog&) = delete;
+    Watchdog& operator=(const Watchdog&) = delete;
+
+  private:
+    std::atomic<bool>& m_flag;
+    std::mutex m_mutex;
+    std::condition_variable m_cancel;
+    bool m_done = false;
+    std::thread m_thread;
+};
+
+}  // namespace
+
+ConeRenderStats& ConeRenderStats::operator+=(const ConeRenderStats& o) {
+    primary += o.primary;
+    secondary += o.secondary;
+    shadow += o.shadow;
+    primary_seconds += o.primary_seconds;
+    secondary_seconds += o.secondary_seconds;
+    shadow_seconds += o.shadow_seconds;
+    straddled_critical_angle += o.straddled_critical_angle;
+    pixels_done += o.pixels_done;
+    pixels += o.pixels;
+    stopped = stopped || o.stopped;
+    return *this;
+}
+
+float cone_pixel_scale(const PixelFilter& filter) {
+    if (filter.kind == PixelFilter::Kind::Gaussian) {
+        return std::sqrt(2.0f) * filter.sigma;
+    }
+    // A box of width 2r has variance r²/3 per axis; exp(−x²/s²) has s²/2.
+    return std::sqrt(2.0f / 3.0f) * filter.radius;
+}
+
+ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& options,
+                             const ConeOptions& cone_options, const std::string& label) {
+    const Scene& scene = geometry.scene();
+    const CameraRays camera(scene.camera, options.width, options.height);
+    const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
+    std::atomic<bool> stop{false};
+    const ConeTracer tracer(geometry, cone_options.traversal, max_depth, &stop);
+    const float scale = cone_pixel_scale(options.filter);
+    const float aperture = scene.camera.aperture_radius;
+    // The cone is the pixel's filter: each pixel's one sample is its value.
+    Film film(options.width, options.height, PixelFilter::box());
+    tbb::enumerable_thread_specific<ConeWork> work;
+    const auto start = Clock::now();
+    ConeRenderOutput out;
+    {
+        const Watchdog watchdog(cone_options.time_budget, stop);
+        out.render.rays = film.add_pass(
+            options.threads, label, options.quiet,
+            [&](int x, int y, FilmTile& tile, RayCounters& counters) {
+                ConeWork& local = work.local();
+                ++local.stats.pixels;
+                if (stop.load(std::memory_order_relaxed)) {
+                    return;
+                }
+                const float rx = static_cast<float>(x) + 0.5f;
+                const float ry = static_cast<float>(y) + 0.5f;
+                ConeRay ray;
+                if (aperture > 0.0f) {
+                    const Ray centre = camera.lens_ray(rx, ry, 0.5f, 0.5f);
+                    ray.origin = centre.origin;
+                    ray.direction = centre.direction.normalized();
+                    ray.cone = FootprintCone::from_differential(
+                        ray.direction, camera.lens_differential(rx, ry, 0.5f, 0.5f, scale));
+                    // The aperture's cone: the lens disc at the lens, nothing in focus.
+                    const float focus = scene.camera.focal_distance /
+                                        std::max(ray.direction.dot(camera.forward()), 1e-3f);
+                    const float b = aperture / std::sqrt(2.0f);
+                    ray.cone.add_blur(b * Mat2f::Identity(), (-b / focus) * Mat2f::Identity());
+                } else {
+                    const Ray centre = camera.pinhole_ray(rx, ry);
+                    ray.origin = centre.origin;
+                    ray.direction = centre.direction.normalized();
+                    ray.cone = FootprintCone::from_differential(
+                        ray.direction, camera.pinhole_differential(rx, ry, scale));
+                }
+                ++counters.primary;
+                const Rgb radiance =
+                    tracer.radiance(ray, 0.0f, 0, 1.0f, ConeTracer::Kind::Primary, local);
+                if (stop.load(std::memory_order_relaxed)) {
+                    return;  // cut short: leave the pixel empty rather than wrong
+                }
+                ++local.stats.pixels_done;
+                tile.add_sample(rx, ry, radiance);
+            });
+    }
+    out.render.image = film.image();
+    out.render.samples = 0;
+    for (const ConeWork& w : work) {
+        out.stats += w.stats;
+        out.render.rays.secondary += w.rays.secondary;
+        out.render.rays.shadow += w.rays.shadow;
+    }
+    out.stats.stopped = stop.load();
+    out.render.samples = out.stats.pixels_done;
+    out.render.spp = 1;
+    out.render.render_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    out.render.last_pass_seconds = out.render.render_seconds;
+    return out;
+}
+
+}  // namespace mrt
