@@ -190,8 +190,8 @@ TEST(MrtTraceCli, OptionsAMethodDoesNotReadAreRefused) {
             << run.output;
     }
     // The cone methods' own options, and what they refuse.
-    for (const char* args : {"--max-anisotropy 4", "--no-level-blend", "--exact-vertex-frames",
-                             "--triangle-weight paper"}) {
+    for (const char* args :
+         {"--max-anisotropy 4", "--no-level-blend", "--node-frames", "--triangle-weight paper"}) {
         const TraceRun run = run_trace(base + args);
         EXPECT_EQ(run.exit_code, 2) << args;
         EXPECT_NE(run.output.find("only the cone methods"), std::string::npos) << run.output;

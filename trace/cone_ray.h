@@ -56,7 +56,12 @@ struct ConeRay {
 std::ostream& operator<<(std::ostream& os, const ConeRay& ray);
 
 struct ConePointHit {
-    float t = 0.0f;       ///< Depth of the point along the ray.
+    /// Depth along the ray of the surface the point stands for: where the axis meets the
+    /// point's tangent plane (Zwicker et al.'s ray–splat intersection), blended towards the
+    /// point's own depth, its projection onto the axis (§4.3), as the plane turns edge-on
+    /// (|n·d| from 0.3 down to 0.1). The points of one surface then agree on its depth at the
+    /// axis, so a fragment's mean depth lies on the surface, not off it by a footprint's slope.
+    float t = 0.0f;
     float weight = 0.0f;  ///< point_weight: the A-buffer's weight.
 };
 
@@ -71,11 +76,25 @@ inline std::optional<ConePointHit> intersect_cone_point(const ConeRay& ray,
     if (!(p.t >= t_min)) {
         return std::nullopt;
     }
-    const float weight = point_weight(frame, p.offset, normal.dot(ray.direction), coverage);
+    const float cosine = normal.dot(ray.direction);
+    const float weight = point_weight(frame, p.offset, cosine, coverage);
     if (!(weight > 0.0f)) {
         return std::nullopt;
     }
-    return ConePointHit{p.t, weight};
+    // The tangent plane n·(x − p) = 0 meets the axis o + t·d at t = p.t + (n_uv·offset)/(n·d).
+    const float c = std::abs(cosine);
+    float t = p.t;
+    if (c > 0.1f) {
+        const float plane =
+            p.t + (normal.dot(ray.cone.u) * p.offset.x() + normal.dot(ray.cone.v) * p.offset.y()) /
+                      cosine;
+        const float s = std::min(1.0f, (c - 0.1f) / 0.2f);
+        t = p.t + s * s * (3.0f - 2.0f * s) * (plane - p.t);
+    }
+    if (!(t >= t_min)) {
+        return std::nullopt;
+    }
+    return ConePointHit{t, weight};
 }
 
 }  // namespace mrt

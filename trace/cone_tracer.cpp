@@ -138,7 +138,19 @@ class ConeTracer {
             add_light(sample_point_light(light, p), nullptr);
         }
         for (const EllipticalAreaLight& light : m_scene.area_lights) {
-            add_light(sample_area_light_centre(light, p), &light);
+            // The highlight of an extended light is the Phong lobe convolved with the light's
+            // disc as seen from p: variances add, the lobe cos^e ≈ exp(−e·α²/2) having 1/e
+            // and a uniform disc of angular radius θ θ²/4 per axis. The normalised lobe keeps
+            // its energy at the lower exponent.
+            const LightSample sample = sample_area_light_centre(light, p);
+            const float radius_squared = light.area() / kPi *
+                                         std::abs(light.normal().dot(sample.wi)) /
+                                         (sample.distance * sample.distance);
+            const float exponent = s.phong_exponent;
+            material.phong_exponent =
+                exponent > 0.0f ? 1.0f / (1.0f / exponent + 0.25f * radius_squared) : exponent;
+            add_light(sample, &light);
+            material.phong_exponent = exponent;
         }
         if (depth >= m_max_depth) {
             return result;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <ostream>
 #include <type_traits>
 
@@ -22,6 +23,17 @@ constexpr float kMaxToleranceTangent = 20.0f;
 /// A node's triangles are weighed with one footprint (§5.2) while it changes by less than this
 /// fraction across the node's depths; beyond, each vertex gets the footprint at its own depth.
 constexpr float kNodeFootprintVariation = 0.1f;
+/// How much wider than the weight's reach the node's one frame culls triangles before their
+/// exact per-vertex weight: more than the footprint's kNodeFootprintVariation across a node.
+constexpr float kCullMargin = 1.25f;
+/// A cone whose apex lies within √this of the triangle's size (or distance) from its plane
+/// left that plane (squared: 1e-5 relative, some hundred times float rounding).
+constexpr float kCoplanarTolerance = 1e-10f;
+/// A point whose tangent plane passes within this many voxel sides of the apex of a cone that
+/// left a surface stands for that surface.
+constexpr float kCoplanarPoint = 0.1f;
+/// Per-vertex footprints need every vertex this far from the apex relative to the farthest.
+constexpr float kApexRatio = 0.25f;
 
 /// tan of the angle between the ray and the surface's plane, from |n·d| = cos of the angle to
 /// the normal: how far apart in depth two points of the surface a lateral unit apart are.
@@ -287,6 +299,12 @@ class Walk {
             }
             const Vec3f normal = decode_normal(core.normal);
             const Vec3f position = point_position(node, m_view.grid, core, m_view.offset[i]);
+            if (l.t_min > 0.0f &&
+                std::abs(normal.dot(space.ray.origin - position)) <= kCoplanarPoint * h) {
+                // As for triangles: the surface a cone leaves is not met again by the points
+                // that stand for it (a coarse level's points reach far across the start).
+                return;
+            }
             const auto hit = intersect_cone_point(space.ray, frame, position, normal,
                                                   decode_coverage8(core.coverage), l.t_min);
             if (!hit || hit->t > l.t_max) {
@@ -351,13 +369,13 @@ class Walk {
         const float growth = cone.incr_dev.norm() + (cone.blurred ? cone.blur_incr.norm() : 0.0f);
         const bool varies =
             !(2.0f * l.sphere.radius * growth <= kNodeFootprintVariation * l.footprint.norm());
-        const bool per_vertex = m_options.exact_vertex_frames;
+        const bool per_vertex = !m_options.node_frames;
         // Where the weight can reach, in Gaussian units (cone_triangle.cpp's box test) times
         // the footprint's largest semi-axis; with per-vertex frames the largest over the
         // node's depths (the Frobenius norm bounds it, and it is convex in t).
         const float units = m_options.triangle_weight == TriangleWeight::Paper ? 2.48f : 1.46f;
-        float reach = units * radius;
-        if (per_vertex || varies) {
+        float reach = (per_vertex ? kCullMargin : 1.0f) * units * radius;
+        if (varies) {
             const float near = std::max(l.sphere.t - l.sphere.radius, l.t_min);
             const float far = std::min(l.sphere.t + l.sphere.radius, l.t_max);
             reach = units * std::sqrt(std::max(space.ray.cone.at(near).squaredNorm(),
@@ -372,7 +390,7 @@ class Walk {
                 continue;
             }
             float cluster_radius = radius;
-            if (varies && !per_vertex) {
+            if (varies) {
                 // The node's one footprint would be wrong across it: one per cluster instead
                 // (a cluster is a few triangles across).
                 SymmetricEigen2 ellipse;
@@ -400,15 +418,54 @@ class Walk {
                 p[i] = to_vec(m_view.vertex_positions[tri[i]]);
                 vertices[i] = space.ray.frame_of(p[i]);
             }
-            if (per_vertex) {
-                for (std::size_t i = 0; i < 3; ++i) {
-                    frames[i] = GaussianFrame::of(FootprintCone::clamp_anisotropy(
-                        space.ray.cone.at(std::max(vertices[i].t, l.t_min)),
-                        m_options.max_anisotropy));
+            if (l.t_min > 0.0f) {
+                // A cone leaving a surface starts on it: the flat surface it leaves (every
+                // triangle of a floor, coplanar with the apex) cannot be met again, whatever
+                // its footprint makes of the triangles around the start.
+                const Vec3f edge1 = p[1] - p[0];
+                const Vec3f edge2 = p[2] - p[0];
+                const Vec3f normal = edge1.cross(edge2);
+                const float scale = std::max({edge1.squaredNorm(), edge2.squaredNorm(),
+                                              (p[0] - space.ray.origin).squaredNorm()});
+                const float distance = normal.dot(space.ray.origin - p[0]);
+                if (distance * distance <= kCoplanarTolerance * normal.squaredNorm() * scale) {
+                    return;
                 }
             }
-            const auto hit =
-                intersect_cone_triangle(vertices, frames, m_options.triangle_weight, l.t_min);
+            std::array<GaussianFrame, 3> exact;
+            if (per_vertex) {
+                // Culled with the node's (or cluster's) one frame, a margin wider than the
+                // footprint changes across the node; weighed with each vertex's own, so that
+                // the triangles around a shared edge weigh exactly 1 together wherever they
+                // are kept.
+                const float reach =
+                    kCullMargin *
+                    (m_options.triangle_weight == TriangleWeight::Paper ? 2.48f : 1.46f);
+                for (int axis = 0; axis < 2; ++axis) {
+                    float lo = std::numeric_limits<float>::infinity();
+                    float hi = -lo;
+                    for (std::size_t i = 0; i < 3; ++i) {
+                        const float y = frames[i].map(vertices[i].offset)[axis];
+                        lo = std::min(lo, y);
+                        hi = std::max(hi, y);
+                    }
+                    if (lo > reach || hi < -reach) {
+                        return;
+                    }
+                }
+                // A triangle reaching back towards the cone's apex (a floor running under the
+                // camera) has no meaningful footprint at its near vertices: it keeps the
+                // cull's frame.
+                const float nearest = std::min({vertices[0].t, vertices[1].t, vertices[2].t});
+                const float farthest = std::max({vertices[0].t, vertices[1].t, vertices[2].t});
+                per_vertex = nearest > kApexRatio * farthest && nearest > l.t_min;
+                for (std::size_t i = 0; per_vertex && i < 3; ++i) {
+                    exact[i] = GaussianFrame::of(FootprintCone::clamp_anisotropy(
+                        space.ray.cone.at(vertices[i].t), m_options.max_anisotropy));
+                }
+            }
+            const auto hit = intersect_cone_triangle(vertices, per_vertex ? exact : frames,
+                                                     m_options.triangle_weight, l.t_min);
             if (!hit || hit->t < l.t_min || hit->t > l.t_max) {
                 return;
             }

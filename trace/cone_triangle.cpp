@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <ostream>
 
 namespace mrt {
@@ -120,9 +121,13 @@ GaussianFrame GaussianFrame::of_ellipse(const SymmetricEigen2& e) {
 }
 
 Vec2f GaussianFrame::map(const Vec2f& offset) const {
+    // (F·Fᵀ)^(−1/2)·x = U·Λ^(−1/2)·Uᵀ·x: scaled along the ellipse's axes and rotated back, so
+    // the map is the same for every decomposition of the same F and changes continuously with
+    // F. Frames at different depths (per vertex) then agree on the plane's orientation even
+    // where an almost round footprint's axes turn by 90° from one depth to the next.
     const Vec2f minor_axis(-axis.y(), axis.x());
-    return {offset.dot(axis) * inverse_semi_axes.x(),
-            offset.dot(minor_axis) * inverse_semi_axes.y()};
+    return offset.dot(axis) * inverse_semi_axes.x() * axis +
+           offset.dot(minor_axis) * inverse_semi_axes.y() * minor_axis;
 }
 
 float gaussian_triangle_mass(const Vec2f& a, const Vec2f& b, const Vec2f& c) {
@@ -188,8 +193,38 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
     ConeTriangleHit hit;
     hit.b1 = static_cast<float>(closest.x());
     hit.b2 = static_cast<float>(closest.y());
+    // Where the axis itself passes through the triangle, the hit is that point: its
+    // barycentric coordinates solve b0·o0 + b1·o1 + b2·o2 = 0 in the (linear) ray-frame
+    // offsets. Per-vertex frames map the triangle non-linearly, so the closest point found in
+    // their coordinates is only near it, and a depth off the surface's plane would start
+    // shadow and secondary cones below the surface.
+    double plane_t = std::numeric_limits<double>::quiet_NaN();
+    {
+        const Vec2d o0 = vertices[0].offset.cast<double>();
+        const Vec2d e1 = vertices[1].offset.cast<double>() - o0;
+        const Vec2d e2 = vertices[2].offset.cast<double>() - o0;
+        const double det = cross(e1, e2);
+        if (std::abs(det) > 0.0) {
+            const double b1 = cross(-o0, e2) / det;
+            const double b2 = cross(e1, -o0) / det;
+            if (b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0) {
+                hit.b1 = static_cast<float>(b1);
+                hit.b2 = static_cast<float>(b2);
+            }
+            // The depth is where the axis meets the triangle's plane even when it passes
+            // beside the triangle, so that the triangles of one surface (and its points)
+            // agree on the depth at the axis; kept within the triangle's own depths, which a
+            // plane seen nearly edge-on would leave.
+            plane_t = (1.0 - b1 - b2) * vertices[0].t + b1 * vertices[1].t + b2 * vertices[2].t;
+        }
+    }
     const float b0 = 1.0f - hit.b1 - hit.b2;
     hit.t = b0 * vertices[0].t + hit.b1 * vertices[1].t + hit.b2 * vertices[2].t;
+    if (std::isfinite(plane_t)) {
+        hit.t = static_cast<float>(std::clamp(
+            plane_t, static_cast<double>(std::min({vertices[0].t, vertices[1].t, vertices[2].t})),
+            static_cast<double>(std::max({vertices[0].t, vertices[1].t, vertices[2].t}))));
+    }
     if (weight == TriangleWeight::Paper) {
         const Vec2f point = b0 * y[0] + hit.b1 * y[1] + hit.b2 * y[2];
         const float d = point.norm();

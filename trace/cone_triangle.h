@@ -17,12 +17,14 @@
 //   smaller than the footprint weighs its area times the Gaussian's height, as points do.
 //
 // Mapping. For a footprint F the Gaussian is exp(−|F⁻¹x|²). With F·Fᵀ = U·Λ·Uᵀ, the map
-// y = Λ^(−1/2)·Uᵀ·x differs from F⁻¹x by a rotation, so it gives the same Gaussian, and it is
-// computed from the stable closed-form eigen-decomposition (common/footprint.h) instead of an
-// inverse that loses everything when F's columns are nearly collinear; the anisotropy clamp
-// bounds Λ's condition. `PerVertex` maps every vertex with the footprint at its own depth (the
-// exact version of §5.2); `PerNode` uses one footprint for all three (the paper's faster
-// default: one decomposition per octree box).
+// y = U·Λ^(−1/2)·Uᵀ·x = (F·Fᵀ)^(−1/2)·x differs from F⁻¹x by a rotation, so it gives the same
+// Gaussian, and it is computed from the stable closed-form eigen-decomposition
+// (common/footprint.h) instead of an inverse that loses everything when F's columns are nearly
+// collinear; the anisotropy clamp bounds Λ's condition. The rotation back by U makes the map
+// unique and continuous in F, which mapping each vertex with the footprint at its own depth
+// (the exact version of §5.2) needs: Λ^(−1/2)·Uᵀ alone would turn with the axes of an almost
+// round footprint. The tracer (trace/cone_traversal.h) passes three frames at the vertices'
+// depths, or three copies of one (the paper's faster version: one decomposition per box).
 
 #include "common/footprint.h"
 #include "common/math.h"
@@ -50,7 +52,9 @@ struct GaussianFrame {
 };
 
 struct ConeTriangleHit {
-    float t = 0.0f;       ///< Depth of the hit: the closest point's, interpolated.
+    /// Depth of the hit: where the axis meets the triangle's plane, within the triangle's
+    /// depths (the closest point's depth where the plane is edge-on).
+    float t = 0.0f;
     float weight = 0.0f;  ///< In (0, 1] for `Coverage`; the A-buffer's weight.
     float b1 = 0.0f;      ///< Barycentric coordinates of the closest point (vertex 1, 2).
     float b2 = 0.0f;

@@ -57,7 +57,7 @@ struct Arguments {
     // The cone tracers.
     float max_anisotropy = 8.0f;
     bool no_level_blend = false;
-    bool exact_vertex_frames = false;
+    bool node_frames = false;
     std::string triangle_weight = "coverage";
 };
 
@@ -91,8 +91,8 @@ constexpr int kMaxSpp = 65536;
 /// Options that only some methods read must not be silently ignored by the others.
 void check_method_options(const CLI::App& app, const Arguments& args) {
     if (!is_cone(args.method)) {
-        for (const char* option : {"--max-anisotropy", "--no-level-blend", "--exact-vertex-frames",
-                                   "--triangle-weight"}) {
+        for (const char* option :
+             {"--max-anisotropy", "--no-level-blend", "--node-frames", "--triangle-weight"}) {
             if (app.count(option) > 0) {
                 throw CLI::ValidationError(option, "only the cone methods take it");
             }
@@ -204,7 +204,7 @@ int run(const Arguments& args) {
         mrt::ConeOptions cone;
         cone.traversal.points = args.method == "cone";
         cone.traversal.blend_levels = !args.no_level_blend;
-        cone.traversal.exact_vertex_frames = args.exact_vertex_frames;
+        cone.traversal.node_frames = args.node_frames;
         cone.traversal.triangle_weight = args.triangle_weight == "paper"
                                              ? mrt::TriangleWeight::Paper
                                              : mrt::TriangleWeight::Coverage;
@@ -355,9 +355,9 @@ int main(int argc, char** argv) {
     app.add_flag("--no-level-blend", args.no_level_blend,
                  "cone: use the chosen level's points alone, not blended with the next finer "
                  "level");
-    app.add_flag("--exact-vertex-frames", args.exact_vertex_frames,
-                 "cone methods: decompose the footprint at every triangle vertex instead of once "
-                 "per node (5.2)");
+    app.add_flag("--node-frames", args.node_frames,
+                 "cone methods: weigh a node's triangles with its one footprint decomposition "
+                 "(5.2, faster, seams between nodes) instead of the footprint at each vertex");
     app.add_option("--triangle-weight", args.triangle_weight,
                    "cone methods: coverage (the footprint Gaussian's mass over the triangle) or "
                    "paper (exp(-(d-1/2)^2) of the closest point's distance, 4.5)")
