@@ -242,13 +242,23 @@ Mat2f symmetric_root(float a, float b, float c) {
     // The square root of a symmetric positive semi-definite 2×2 matrix C is (C + s·I)/τ with
     // s = √det C and τ = √(tr C + 2s) (Cayley–Hamilton): no eigen-decomposition, and every
     // term is a sum of non-negative numbers except det C, taken without cancellation.
-    const float s = std::sqrt(std::max(difference_of_products(a, c, b, b), 0.0f));
-    const float tau = std::sqrt(a + c + 2.0f * s);
+    // Scaled to the larger diagonal entry first: det C is a product of two entries, which in
+    // float underflows below entries of 1e-19 (footprints of 1e-11) and overflows above 1e19.
+    const float m = std::max(a, c);
+    if (!(m > 0.0f) || !std::isfinite(m) || !std::isfinite(b)) {
+        return Mat2f::Zero();
+    }
+    const float an = a / m;
+    const float bn = b / m;
+    const float cn = c / m;
+    const float s = std::sqrt(std::max(difference_of_products(an, cn, bn, bn), 0.0f));
+    const float tau = std::sqrt(an + cn + 2.0f * s);
     if (!(tau > 0.0f) || !std::isfinite(tau)) {
         return Mat2f::Zero();
     }
+    const float scale = std::sqrt(m) / tau;
     Mat2f root;
-    root << (a + s) / tau, b / tau, b / tau, (c + s) / tau;
+    root << (an + s) * scale, bn * scale, bn * scale, (cn + s) * scale;
     return root;
 }
 

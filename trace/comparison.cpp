@@ -428,6 +428,8 @@ class ComparisonRun {
                             stats_number(stats_file, stats, "build_seconds") + run.render_seconds;
         run.rays = static_cast<std::uint64_t>(stats_number(stats_file, stats, "rays"));
         run.samples = optional_stats_number<std::uint64_t>(stats, "samples");
+        run.stopped = stats.contains("stopped") && stats["stopped"].is_boolean() &&
+                      stats["stopped"].get<bool>();
 
         const Image image = read_image(dir / run.exr);
         check_size(image, dir / run.exr, m_reference.width(), m_reference.height(),

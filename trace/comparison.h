@@ -62,6 +62,9 @@ struct RunResult {
     std::string error_image;               ///< NN-SLUG-error.png, relative to DIR.
     std::string stats;                     ///< NN-SLUG.json (mrt-trace's stats), relative to DIR.
     std::string exr;                       ///< NN-SLUG.exr (the linear image), relative to DIR.
+    /// The run stopped at its time guard before finishing the image (the stats' "stopped":
+    /// cone-classic): its error is that of an unfinished image, reported as such.
+    bool stopped = false;
 };
 
 /// Everything a comparison measured.

@@ -92,7 +92,8 @@ std::string results_json_text(const Comparison& c) {
                         {"ssim", number_or_null(r.ssim)},
                         {"image", r.image},
                         {"error_image", r.error_image},
-                        {"stats", r.stats}});
+                        {"stats", r.stats},
+                        {"stopped", r.stopped}});
     }
     const ReferenceSummary& ref = c.reference;
     const json j = {{"scene", c.scene},
@@ -115,14 +116,14 @@ std::string results_json_text(const Comparison& c) {
 std::string results_csv_text(const Comparison& c) {
     std::string csv =
         "method,spec,render_seconds,total_seconds,wall_seconds,rays,samples,rmse,psnr,ssim,"
-        "image,error_image,stats\n";
+        "image,error_image,stats,stopped\n";
     for (const RunResult& r : c.runs) {
-        csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(r.method),
-                           csv_field(r.spec), csv_number(r.render_seconds),
-                           csv_number(r.total_seconds), csv_number(r.wall_seconds), r.rays,
-                           r.samples ? std::to_string(*r.samples) : std::string(),
-                           csv_number(r.rmse), csv_number(r.psnr), csv_number(r.ssim),
-                           csv_field(r.image), csv_field(r.error_image), csv_field(r.stats));
+        csv += fmt::format(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(r.method), csv_field(r.spec),
+            csv_number(r.render_seconds), csv_number(r.total_seconds), csv_number(r.wall_seconds),
+            r.rays, r.samples ? std::to_string(*r.samples) : std::string(), csv_number(r.rmse),
+            csv_number(r.psnr), csv_number(r.ssim), csv_field(r.image), csv_field(r.error_image),
+            csv_field(r.stats), r.stopped ? "true" : "false");
     }
     return csv;
 }
@@ -149,9 +150,9 @@ void print_results_table(std::ostream& os, const Comparison& c) {
     for (std::size_t i = 0; i < c.runs.size(); ++i) {
         const RunResult& r = c.runs[i];
         os << fmt::format(
-            "{:>3}  {:<{}}  {:>10.3f}  {:>10.3f}  {:>14}  {:>10.6f}  {:>7}  {:>7.4f}\n", i + 1,
+            "{:>3}  {:<{}}  {:>10.3f}  {:>10.3f}  {:>14}  {:>10.6f}  {:>7}  {:>7.4f}{}\n", i + 1,
             r.spec, spec_width, r.render_seconds, r.total_seconds, r.rays, r.rmse,
-            format_psnr(r.psnr), r.ssim);
+            format_psnr(r.psnr), r.ssim, r.stopped ? "  stopped: time budget spent" : "");
     }
     os << reference_line(c) << '\n';
 }
@@ -186,8 +187,8 @@ std::string run_label(const RunResult& run) {
 }
 
 std::string error_label(const RunResult& run) {
-    return fmt::format("{}  RMSE {:.4f}  SSIM {:.3f}", seconds_text(run.render_seconds), run.rmse,
-                       run.ssim);
+    return fmt::format("{}  RMSE {:.4f}  SSIM {:.3f}{}", seconds_text(run.render_seconds), run.rmse,
+                       run.ssim, run.stopped ? "  (stopped)" : "");
 }
 
 std::string reference_label(const ReferenceSummary& reference) {

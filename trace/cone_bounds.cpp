@@ -41,12 +41,27 @@ bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& 
     if (near > far) {
         return false;  // wholly before t_min or after t_max
     }
-    // Principal axes of the far footprint: any orthonormal pair would be conservative, these
-    // make the rectangle hug an anisotropic ellipse.
-    const SymmetricEigen2 axes = cone.ellipse(far);
     const float rho = std::sqrt(kPointWeightClipExponent);
     const float inverse_anisotropy_squared = 1.0f / (max_anisotropy * max_anisotropy);
     const float widening_squared = widening * widening;
+    // First a circle: |Fᵀe| ≤ ‖F‖_F along every e, so the ellipse's reach is at most
+    // ρ·√(‖F‖_F²·(1 + 1/A²) + w²). Most spheres a cone is tested against are its node's
+    // siblings well off the axis; they fall here without the decomposition below.
+    const auto circle = [&](float t) {
+        const Mat2f f = cone.pixel_at(t);
+        float frobenius = f.squaredNorm();
+        if (cone.blurred) {
+            frobenius += (cone.blur_start + t * cone.blur_incr).squaredNorm();
+        }
+        return frobenius * (1.0f + inverse_anisotropy_squared) + widening_squared;
+    };
+    const float circle_reach = rho * std::sqrt(std::max(circle(near), circle(far))) + sphere.radius;
+    if (sphere.offset.squaredNorm() > circle_reach * circle_reach) {
+        return false;
+    }
+    // Principal axes of the far footprint: any orthonormal pair would be conservative, these
+    // make the rectangle hug an anisotropic ellipse.
+    const SymmetricEigen2 axes = cone.ellipse(far);
     for (const Vec2f& e : {axes.major_axis, axes.minor_axis}) {
         const float reach =
             rho * std::max(reach_along(cone, near, e, inverse_anisotropy_squared, widening_squared),

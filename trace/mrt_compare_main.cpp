@@ -27,8 +27,9 @@ constexpr const char* kMethodHelp =
     "Method spec NAME[:key=value,...], keys being mrt-trace long options without dashes, a key "
     "alone a flag (whitted, whitted:spp=4, distributed:spp-max=16, "
     "distributed:time-budget=2). Repeatable, run in order. Default: whitted, whitted:spp=4, "
-    "distributed:spp-max=4/16/64, distributed with a time budget of 2x and 8x whitted's render "
-    "time, cone, cone-classic (those mrt-trace offers)";
+    "distributed:spp-max=4/16/64, distributed with a time budget of 4x, 16x and 64x whitted's "
+    "render time, cone, and cone-classic stopped after 64x whitted's time (those mrt-trace "
+    "offers)";
 
 }  // namespace
 
