@@ -91,6 +91,23 @@ std::array<VertexInRayFrame, 3> triangle_at(float t, const Vec2f& a, const Vec2f
     return {VertexInRayFrame{t, a}, VertexInRayFrame{t, b}, VertexInRayFrame{t, c}};
 }
 
+/// Distance from the origin to the 2D triangle (a, b, c): 0 inside, else to the nearest edge.
+float closest_distance(const Vec2f& a, const Vec2f& b, const Vec2f& c) {
+    const auto side = [](const Vec2f& p, const Vec2f& q) { return p.x() * q.y() - p.y() * q.x(); };
+    const float s0 = side(b - a, -a);
+    const float s1 = side(c - b, -b);
+    const float s2 = side(a - c, -c);
+    if ((s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0)) {
+        return 0.0f;
+    }
+    const auto segment = [](const Vec2f& p, const Vec2f& q) {
+        const Vec2f e = q - p;
+        const float u = std::clamp(-p.dot(e) / std::max(e.squaredNorm(), 1e-30f), 0.0f, 1.0f);
+        return (p + u * e).norm();
+    };
+    return std::min({segment(a, b), segment(b, c), segment(c, a)});
+}
+
 TEST(ConeTriangle, CoverageIsHalfOnAnEdgeWhereThePapersWeightIsStillOne) {
     const GaussianFrame frame = GaussianFrame::of(0.1f * Mat2f::Identity());
     const std::array<GaussianFrame, 3> frames{frame, frame, frame};
@@ -99,11 +116,12 @@ TEST(ConeTriangle, CoverageIsHalfOnAnEdgeWhereThePapersWeightIsStillOne) {
     const auto coverage = intersect_cone_triangle(edge, frames, TriangleWeight::Coverage, 0.0f);
     const auto paper = intersect_cone_triangle(edge, frames, TriangleWeight::Paper, 0.0f);
     ASSERT_TRUE(coverage && paper);
-    EXPECT_NEAR(coverage->weight, 0.5f, 1e-4f);
+    // Half the Gaussian's mass, over the 98 % inside the clip circle.
+    EXPECT_NEAR(coverage->weight, 0.5f / (1.0f - kPointWeightClip), 1e-4f);
     EXPECT_EQ(paper->weight, 1.0f);
     EXPECT_FLOAT_EQ(coverage->t, 5.0f);
-    // Two Gaussian units (0.2) outside the edge: ½·erfc(2) = 2.3e-3 is below the clip; the
-    // paper's exp(−1.5²) = 0.105 is not.
+    // Two Gaussian units (0.2) outside the edge: beyond the clip circle (√ln 50 = 1.98 units),
+    // where the Gaussian is below 2 %; the paper's exp(−1.5²) = 0.105 is not.
     const auto outside = triangle_at(5.0f, {0.2f, -10}, {10.2f, 0}, {0.2f, 10});
     EXPECT_FALSE(intersect_cone_triangle(outside, frames, TriangleWeight::Coverage, 0.0f));
     const auto paper_outside =
@@ -143,7 +161,10 @@ TEST(ConeTriangle, SameWeightUnderRotationAndScaleOfTheCone) {
         const Vec2f y1 = f.inverse() * v[1];
         const Vec2f y2 = f.inverse() * v[2];
         const float direct = gaussian_triangle_mass(y0, y1, y2);
-        EXPECT_NEAR(direct < kPointWeightClip ? 0.0f : direct, w, 2e-4f);
+        EXPECT_NEAR(closest_distance(y0, y1, y2) > triangle_clip_radius(TriangleWeight::Coverage)
+                        ? 0.0f
+                        : direct / (1.0f - kPointWeightClip),
+                    w, 2e-4f);
     }
 }
 

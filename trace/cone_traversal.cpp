@@ -373,7 +373,7 @@ class Walk {
         // Where the weight can reach, in Gaussian units (cone_triangle.cpp's box test) times
         // the footprint's largest semi-axis; with per-vertex frames the largest over the
         // node's depths (the Frobenius norm bounds it, and it is convex in t).
-        const float units = m_options.triangle_weight == TriangleWeight::Paper ? 2.48f : 1.46f;
+        const float units = triangle_clip_radius(m_options.triangle_weight);
         float reach = (per_vertex ? kCullMargin : 1.0f) * units * radius;
         if (varies) {
             const float near = std::max(l.sphere.t - l.sphere.radius, l.t_min);
@@ -440,7 +440,7 @@ class Walk {
                 // are kept.
                 const float reach =
                     kCullMargin *
-                    (m_options.triangle_weight == TriangleWeight::Paper ? 2.48f : 1.46f);
+                    triangle_clip_radius(m_options.triangle_weight);
                 for (int axis = 0; axis < 2; ++axis) {
                     float lo = std::numeric_limits<float>::infinity();
                     float hi = -lo;

@@ -99,6 +99,12 @@ Vec2d closest_to_origin(const Vec2d& a, const Vec2d& b, const Vec2d& c) {
 
 }  // namespace
 
+float triangle_clip_radius(TriangleWeight weight) {
+    // exp(−(d − ½)²) = 2 % at d = ½ + √ln 50; the Gaussian exp(−d²) at d = √ln 50.
+    return weight == TriangleWeight::Paper ? 0.5f + std::sqrt(kPointWeightClipExponent)
+                                           : std::sqrt(kPointWeightClipExponent);
+}
+
 GaussianFrame GaussianFrame::of(const Mat2f& footprint) {
     GaussianFrame frame;
     if (!footprint.allFinite()) {
@@ -176,11 +182,10 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
             return std::nullopt;
         }
     }
-    // A triangle whose bounding box misses the square around the clip circle weighs less than
-    // the clip: a half-plane at Gaussian distance d keeps ½·erfc(d) of the mass, below 2 % past
-    // d = 1.46, and the paper's weight exp(−(d − ½)²) drops below it past d = 2.48. Most
-    // triangles a node keeps are far from the cone, so this saves the exact weight for them.
-    const float reach = weight == TriangleWeight::Paper ? 2.48f : 1.46f;
+    // A triangle whose bounding box misses the square around the clip circle weighs nothing
+    // (below), and most triangles a node keeps are far from the cone: this saves the exact
+    // weight for them.
+    const float reach = triangle_clip_radius(weight);
     for (int axis = 0; axis < 2; ++axis) {
         const float lo = std::min({y[0][axis], y[1][axis], y[2][axis]});
         const float hi = std::max({y[0][axis], y[1][axis], y[2][axis]});
@@ -193,6 +198,10 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
     ConeTriangleHit hit;
     hit.b1 = static_cast<float>(closest.x());
     hit.b2 = static_cast<float>(closest.y());
+    const float distance = ((1.0f - hit.b1 - hit.b2) * y[0] + hit.b1 * y[1] + hit.b2 * y[2]).norm();
+    if (!(distance <= reach)) {
+        return std::nullopt;
+    }
     // Where the axis itself passes through the triangle, the hit is that point: its
     // barycentric coordinates solve b0·o0 + b1·o1 + b2·o2 = 0 in the (linear) ray-frame
     // offsets. Per-vertex frames map the triangle non-linearly, so the closest point found in
@@ -226,13 +235,16 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
             static_cast<double>(std::max({vertices[0].t, vertices[1].t, vertices[2].t}))));
     }
     if (weight == TriangleWeight::Paper) {
-        const Vec2f point = b0 * y[0] + hit.b1 * y[1] + hit.b2 * y[2];
-        const float d = point.norm();
+        const float d = distance;
         hit.weight = d <= 0.5f ? 1.0f : std::exp(-(d - 0.5f) * (d - 0.5f));
     } else {
-        hit.weight = gaussian_triangle_mass(y[0], y[1], y[2]);
+        // The clip is on where the Gaussian is below 2 % (as for points), not on the mass: a
+        // footprint over many small triangles would lose every one of them below 2 % of mass
+        // (measured: 7–10 % of a surface's weight). Outside the clip circle lies exactly 2 %
+        // of the mass, put back as for points, so the triangles of a surface add up to 1.
+        hit.weight = gaussian_triangle_mass(y[0], y[1], y[2]) / (1.0f - kPointWeightClip);
     }
-    if (!(hit.weight >= kPointWeightClip)) {
+    if (!(hit.weight > 0.0f)) {
         return std::nullopt;
     }
     return hit;

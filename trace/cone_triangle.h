@@ -55,13 +55,19 @@ struct ConeTriangleHit {
     /// Depth of the hit: where the axis meets the triangle's plane, within the triangle's
     /// depths (the closest point's depth where the plane is edge-on).
     float t = 0.0f;
-    float weight = 0.0f;  ///< In (0, 1] for `Coverage`; the A-buffer's weight.
+    float weight = 0.0f;  ///< In (0, 1/0.98] for `Coverage`; the A-buffer's weight.
     float b1 = 0.0f;      ///< Barycentric coordinates of the closest point (vertex 1, 2).
     float b2 = 0.0f;
 };
 
-/// The hit of the cone with the triangle, or nothing when its weight is below the 2 % clip or
-/// no vertex lies in front of t_min. `frames` are the Gaussian frames at the vertices (PerVertex)
+/// How far from the axis, in the Gaussian's units, a triangle's closest point may lie and still
+/// be weighed: where the Gaussian (Coverage) or the paper's weight falls below the 2 % clip.
+float triangle_clip_radius(TriangleWeight weight);
+
+/// The hit of the cone with the triangle, or nothing when its closest point lies beyond the
+/// 2 % clip (triangle_clip_radius) or no vertex lies in front of t_min. The Coverage weight is
+/// the Gaussian's mass over the triangle over 0.98, the mass inside the clip circle: the
+/// triangles of a surface around the cone add up to at least 1. `frames` are the Gaussian frames at the vertices (PerVertex)
 /// or three copies of one (PerNode).
 std::optional<ConeTriangleHit> intersect_cone_triangle(
     const std::array<VertexInRayFrame, 3>& vertices, const std::array<GaussianFrame, 3>& frames,
