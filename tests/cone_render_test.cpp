@@ -31,6 +31,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -62,6 +63,8 @@ class ConeScene {
     void set_background(const Rgb& background) { m_scene.background = background; }
     /// Likewise the camera.
     void set_camera(const Camera& camera) { m_scene.camera = camera; }
+
+    const ConeGeometry& geometry() const { return m_geometry; }
 
     ConeRenderOutput render(int width, int height, const ConeOptions& cone = {},
                             int threads = 2) const {
@@ -534,8 +537,11 @@ TEST(ConeRender, TranslationInvariance) {
     // tiles' edges and the silhouettes, where the contrast is up to 0.65. Measured: relative
     // RMSE 2.5e-3 to 2.8e-3, maximum 3.7e-3 to 5.3e-3 (over the tracer's recent versions), the
     // differences all on those edges (115 of 3072 pixels above 1e-3, none inside the tiles).
+    // Since depth tolerances stopped growing with the grazing angle beyond a slope of 2, a
+    // few edge pixels also flip between one merged fragment and two (0.036 at most, RMSE
+    // 4.6e-3 measured).
     EXPECT_LT(relative_rmse, 1e-2);
-    EXPECT_LT(worst, 0.03);
+    EXPECT_LT(worst, 0.06);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -716,6 +722,81 @@ TEST(ConeRender, ImageIsTheSameForAnyThreadCount) {
     EXPECT_EQ(one.stats.pixels_done, two.stats.pixels_done);
     EXPECT_EQ(one.stats.primary.points_hit, two.stats.primary.points_hit);
     EXPECT_EQ(one.stats.primary.triangles_hit, two.stats.primary.triangles_hit);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 8. The surface's normal derivative, from which reflected and refracted cones are built.
+
+/// A cone from (0, 0, distance) at the point of a sphere of radius r around the origin at
+/// polar angle `angle` from +z, spreading by `spread` per unit distance.
+ConeRay cone_towards_sphere(double r, double distance, double angle, float spread) {
+    const Vec3f target(static_cast<float>(r * std::sin(angle)), 0.0f,
+                       static_cast<float>(r * std::cos(angle)));
+    ConeRay ray;
+    ray.origin = Vec3f(0.0f, 0.0f, static_cast<float>(distance));
+    ray.direction = (target - ray.origin).normalized();
+    orthonormal_basis(ray.direction, ray.cone.u, ray.cone.v);
+    ray.cone.incr_dev = spread * Mat2f::Identity();
+    return ray;
+}
+
+TEST(ConeRender, ShapeOperatorOfSurfelsAndTrianglesMatchesTheSphere) {
+    // A mirror sphere: its points carry fitted normal gradients (PMIR), its triangles
+    // interpolated normals. At a hit, dn = shape·dp must be dp/r for tangent dp (the sphere's
+    // shape operator (I − n·nᵀ)/r) — what reflected cones spread by.
+    const double r = 1.0;
+    const json scene_json = {{"camera", camera_json(vec(0, 0, 6), vec(0, 0, 0), 30, 16, 16)},
+                             {"materials", {{"mirror", {{"diffuse", 0.2}, {"reflectivity", 0.8}}}}},
+                             {"objects",
+                              {{{"shape", "sphere"},
+                                {"radius", r},
+                                {"segments", 96},
+                                {"rings", 48},
+                                {"material", "mirror"}}}}};
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const ConeScene scene(scratch.path(), scene_json, "sphere.json");
+    for (const bool points : {true, false}) {
+        SCOPED_TRACE(points ? "points (surfel gradients)" : "triangles (cone-classic)");
+        ConeTraversalOptions options;
+        options.points = points;
+        const ConeTraversal traversal(scene.geometry(), options);
+        double worst = 0.0;
+        double worst_normal = 0.0;
+        for (const double angle : {0.0, 0.3, 0.6, 0.9}) {
+            // Footprints of a tenth of the radius reach the points of the levels above the
+            // triangles (a few hundredths of it, the triangles alone).
+            const ConeRay ray = cone_towards_sphere(r, 6.0, angle, points ? 0.02f : 0.002f);
+            ABuffer<ConeSurface> buffer;
+            ConeTraversalStats stats;
+            traversal.trace(ray, 0.0f, 100.0f, buffer, stats);
+            ASSERT_FALSE(buffer.empty());
+            EXPECT_EQ(points, stats.points_hit > 0) << "angle " << angle;
+            const Fragment<ConeSurface>& front = buffer[0];
+            const ConeSurface surface = front.sums.averaged(front.weight);
+            const Vec3f p = ray.origin + front.depth() * ray.direction;
+            const Vec3f n = p.normalized();
+            worst_normal =
+                std::max(worst_normal,
+                         static_cast<double>(std::acos(std::min(1.0f, surface.normal.dot(n)))));
+            Vec3f t1;
+            Vec3f t2;
+            orthonormal_basis(n, t1, t2);
+            for (const Vec3f& t : {t1, t2, Vec3f((t1 + t2).normalized())}) {
+                const Vec3f expected = t / static_cast<float>(r);
+                worst =
+                    std::max(worst, static_cast<double>((surface.shape * t - expected).norm()) * r);
+            }
+        }
+        record(points ? "surfel_shape_error" : "triangle_shape_error", worst);
+        record(points ? "surfel_normal_error_rad" : "triangle_normal_error_rad", worst_normal);
+        // Surfels: fitted to prefiltered normals over a Gaussian of one voxel, at the coarse
+        // levels a wide cone uses, and stored as halves: 8 % of 1/r measured. Triangles: the
+        // barycentric planes of a 96×48 tessellation, 0.2 % measured. Before depth tolerances
+        // stopped growing with the grazing angle, the sphere's front and back merged into one
+        // fragment and the surfels' error was 46 %.
+        EXPECT_LT(worst, points ? 0.12 : 0.01);
+        EXPECT_LT(worst_normal, 0.02);
+    }
 }
 
 }  // namespace

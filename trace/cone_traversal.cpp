@@ -16,9 +16,14 @@ namespace mrt {
 
 namespace {
 
-/// Beyond this the tangent of the angle between a ray and a surface stops widening depth
-/// tolerances: an edge-on surface weighs nothing anyway (common/point_weight.h).
-constexpr float kMaxToleranceTangent = 20.0f;
+/// Where the tangent of the angle between a ray and a surface stops widening a point's depth
+/// tolerance: a point's own extent is half a voxel, and a wider interval from the (nearly
+/// weightless) points a closed object shows edge-on would glue its front and back into one
+/// fragment (measured on a sphere).
+constexpr float kPointToleranceTangent = 2.0f;
+/// The same for triangles: those of one plane agree on its depth at the axis
+/// (ConeTriangleHit) unless it is edge-on, where they weigh little.
+constexpr float kTriangleToleranceTangent = 2.0f;
 
 /// A node's triangles are weighed with one footprint (§5.2) while it changes by less than this
 /// fraction across the node's depths; beyond, each vertex gets the footprint at its own depth.
@@ -29,6 +34,9 @@ constexpr float kCullMargin = 1.25f;
 /// A cone whose apex lies within √this of the triangle's size (or distance) from its plane
 /// left that plane (squared: 1e-5 relative, some hundred times float rounding).
 constexpr float kCoplanarTolerance = 1e-10f;
+/// How far from the apex, in starting radii of the cone (beyond the primitive's own size), the
+/// surface a cone leaves is recognised by passing within one starting radius of the apex.
+constexpr float kNearApex = 10.0f;
 /// A point whose tangent plane passes within this many voxel sides of the apex of a cone that
 /// left a surface stands for that surface.
 constexpr float kCoplanarPoint = 0.1f;
@@ -36,11 +44,12 @@ constexpr float kCoplanarPoint = 0.1f;
 constexpr float kApexRatio = 0.25f;
 
 /// tan of the angle between the ray and the surface's plane, from |n·d| = cos of the angle to
-/// the normal: how far apart in depth two points of the surface a lateral unit apart are.
-float grazing_tangent(float normal_dot_direction) {
+/// the normal: how far apart in depth two points of the surface a lateral unit apart are; at
+/// most `limit`.
+float grazing_tangent(float normal_dot_direction, float limit) {
     const float c = std::abs(normal_dot_direction);
     const float s = std::sqrt(std::max(0.0f, 1.0f - c * c));
-    return std::min(s / std::max(c, 1e-6f), kMaxToleranceTangent);
+    return std::min(s / std::max(c, 1e-6f), limit);
 }
 
 /// A cone seen from one object's space, and how that space maps to the world.
@@ -49,6 +58,7 @@ struct ConeSpace {
     float world_per_t = 1.0f;  ///< World distance along the ray per unit of this space's t.
     Mat3f normal_to_world = Mat3f::Identity();  ///< Object normals → world (unnormalised).
     Mat3f to_object = Mat3f::Identity();        ///< World vectors → object vectors.
+    std::uint32_t id = 0;  ///< Unique within one traversal: keys the per-vertex frame cache.
 };
 
 /// The cone of `parent` (in a group's space) in the space of an instance's object.
@@ -232,10 +242,44 @@ class Walk {
         for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
              ++i) {
             ++m_stats.instances_entered;
-            const ConeSpace inner =
-                enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i));
+            ConeSpace inner = enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i));
+            inner.id = ++m_spaces;
             object(inner, m_view.instances[i].object, weight);
         }
+    }
+
+    /// The Gaussian frame of the (clamped) footprint at a vertex's depth. A vertex is shared by
+    /// about six triangles, which a cone meets together: a small direct-mapped cache keyed by
+    /// the vertex and the space saves most of the decompositions.
+    GaussianFrame vertex_frame(const ConeSpace& space, std::uint32_t vertex, float t) {
+        const std::size_t slot = vertex % kFrameCacheSize;
+        FrameCacheEntry& entry = m_frame_cache[slot];
+        if (entry.vertex != vertex || entry.space != space.id) {
+            entry.vertex = vertex;
+            entry.space = space.id;
+            entry.frame = GaussianFrame::of(
+                FootprintCone::clamp_anisotropy(space.ray.cone.at(t), m_options.max_anisotropy));
+        }
+        return entry.frame;
+    }
+
+    /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
+    /// a cone leaving it starts on: its plane passes within `tolerance` of the apex — or within
+    /// the cone's own starting radius when the primitive is near the apex, so a curved
+    /// surface's neighbouring triangles and points, below the start's resolution, are not
+    /// taken for occluders either.
+    static bool leaves(const ConeSpace& space, const Vec3f& position, const Vec3f& normal,
+                       float tolerance, float size) {
+        const Vec3f apart = space.ray.origin - position;
+        const float distance = std::abs(normal.dot(apart));
+        if (distance <= tolerance) {
+            return true;
+        }
+        const FootprintCone& cone = space.ray.cone;
+        const float start = std::sqrt(cone.start_dev.squaredNorm() +
+                                      (cone.blurred ? cone.blur_start.squaredNorm() : 0.0f));
+        const float near = size + kNearApex * start;
+        return distance <= start && apart.squaredNorm() <= near * near;
     }
 
     /// Whether a cluster's sphere may hold something within `reach` of the axis (a circle
@@ -299,8 +343,7 @@ class Walk {
             }
             const Vec3f normal = decode_normal(core.normal);
             const Vec3f position = point_position(node, m_view.grid, core, m_view.offset[i]);
-            if (l.t_min > 0.0f &&
-                std::abs(normal.dot(space.ray.origin - position)) <= kCoplanarPoint * h) {
+            if (l.t_min > 0.0f && leaves(space, position, normal, kCoplanarPoint * h, 2.0f * h)) {
                 // As for triangles: the surface a cone leaves is not met again by the points
                 // that stand for it (a coarse level's points reach far across the start).
                 return;
@@ -312,7 +355,12 @@ class Walk {
             }
             ++m_stats.points_hit;
             const float cosine = normal.dot(space.ray.direction);
-            const float tolerance = h * (1.0f + 0.5f * grazing_tangent(cosine));
+            // Points of one surface agree on its depth at the axis (their tangent planes':
+            // ConePointHit), up to the curvature across the footprint; half a voxel, more
+            // where the surface is slanted, keeps a closed object's front and back (a few
+            // voxels apart at the level its cone uses) in fragments of their own.
+            const float tolerance =
+                0.5f * h * (1.0f + 0.5f * grazing_tangent(cosine, kPointToleranceTangent));
             if constexpr (kShade) {
                 m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
                                 weight * hit->weight, point_surface(space, i, normal));
@@ -418,29 +466,16 @@ class Walk {
                 p[i] = to_vec(m_view.vertex_positions[tri[i]]);
                 vertices[i] = space.ray.frame_of(p[i]);
             }
-            if (l.t_min > 0.0f) {
-                // A cone leaving a surface starts on it: the flat surface it leaves (every
-                // triangle of a floor, coplanar with the apex) cannot be met again, whatever
-                // its footprint makes of the triangles around the start.
-                const Vec3f edge1 = p[1] - p[0];
-                const Vec3f edge2 = p[2] - p[0];
-                const Vec3f normal = edge1.cross(edge2);
-                const float scale = std::max({edge1.squaredNorm(), edge2.squaredNorm(),
-                                              (p[0] - space.ray.origin).squaredNorm()});
-                const float distance = normal.dot(space.ray.origin - p[0]);
-                if (distance * distance <= kCoplanarTolerance * normal.squaredNorm() * scale) {
-                    return;
-                }
+            if (std::max({vertices[0].t, vertices[1].t, vertices[2].t}) < l.t_min ||
+                std::min({vertices[0].t, vertices[1].t, vertices[2].t}) > l.t_max) {
+                return;
             }
-            std::array<GaussianFrame, 3> exact;
             if (per_vertex) {
                 // Culled with the node's (or cluster's) one frame, a margin wider than the
                 // footprint changes across the node; weighed with each vertex's own, so that
                 // the triangles around a shared edge weigh exactly 1 together wherever they
                 // are kept.
-                const float reach =
-                    kCullMargin *
-                    triangle_clip_radius(m_options.triangle_weight);
+                const float reach = kCullMargin * triangle_clip_radius(m_options.triangle_weight);
                 for (int axis = 0; axis < 2; ++axis) {
                     float lo = std::numeric_limits<float>::infinity();
                     float hi = -lo;
@@ -453,6 +488,25 @@ class Walk {
                         return;
                     }
                 }
+            }
+            if (l.t_min > 0.0f) {
+                // A cone leaving a surface starts on it: the flat surface it leaves (every
+                // triangle of a floor, coplanar with the apex) cannot be met again, whatever
+                // its footprint makes of the triangles around the start.
+                const Vec3f edge1 = p[1] - p[0];
+                const Vec3f edge2 = p[2] - p[0];
+                const Vec3f normal = edge1.cross(edge2);
+                const float length = normal.norm();
+                const float size = std::sqrt(std::max(edge1.squaredNorm(), edge2.squaredNorm()));
+                const float scale =
+                    std::sqrt(std::max(size * size, (p[0] - space.ray.origin).squaredNorm()));
+                if (length > 0.0f && leaves(space, p[0], normal / length,
+                                            std::sqrt(kCoplanarTolerance) * scale, 2.0f * size)) {
+                    return;
+                }
+            }
+            std::array<GaussianFrame, 3> exact;
+            if (per_vertex) {
                 // A triangle reaching back towards the cone's apex (a floor running under the
                 // camera) has no meaningful footprint at its near vertices: it keeps the
                 // cull's frame.
@@ -460,8 +514,7 @@ class Walk {
                 const float farthest = std::max({vertices[0].t, vertices[1].t, vertices[2].t});
                 per_vertex = nearest > kApexRatio * farthest && nearest > l.t_min;
                 for (std::size_t i = 0; per_vertex && i < 3; ++i) {
-                    exact[i] = GaussianFrame::of(FootprintCone::clamp_anisotropy(
-                        space.ray.cone.at(vertices[i].t), m_options.max_anisotropy));
+                    exact[i] = vertex_frame(space, tri[i], vertices[i].t);
                 }
             }
             const auto hit = intersect_cone_triangle(vertices, per_vertex ? exact : frames,
@@ -473,7 +526,8 @@ class Walk {
             const Vec3f geometric = (p[1] - p[0]).cross(p[2] - p[0]).normalized();
             // The depths a flat surface spans across the footprint.
             const float tolerance =
-                radius * (0.5f + grazing_tangent(geometric.dot(space.ray.direction)));
+                radius * (0.5f + grazing_tangent(geometric.dot(space.ray.direction),
+                                                 kTriangleToleranceTangent));
             if constexpr (kShade) {
                 m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
                                 weight * hit->weight,
@@ -553,6 +607,14 @@ class Walk {
     float m_t_min;
     float m_t_max;
     float m_widening_per_spacing;
+    std::uint32_t m_spaces = 0;  ///< Spaces entered so far (the world is 0).
+    static constexpr std::size_t kFrameCacheSize = 64;
+    struct FrameCacheEntry {
+        std::uint32_t vertex = 0xffffffffu;
+        std::uint32_t space = 0xffffffffu;
+        GaussianFrame frame;
+    };
+    std::array<FrameCacheEntry, kFrameCacheSize> m_frame_cache{};
 };
 
 }  // namespace

@@ -162,8 +162,18 @@ float gaussian_triangle_mass(const Vec2f& a, const Vec2f& b, const Vec2f& c) {
         const double sweep = alpha_to - alpha_from;
         // Beyond h = 4 the Gaussian below the edge, ∫exp(−h²/cos²α)dα ≤ √π·exp(−h²)/h, is
         // under 1e-7 of it: the edge only closes the sweep (a large triangle around a cone).
-        const double share =
-            sweep - (h * h > 16.0 ? 0.0 : edge_integral(h * h, alpha_from, alpha_to));
+        // Endpoints beyond 4 units likewise: the Gaussian there is below 1e-7, so the edge
+        // either takes the whole line's integral, π·erfc(h) (Craig's formula), when its foot
+        // lies between them, or nothing. Triangles large beside the footprint end here.
+        double below = 0.0;
+        if (h * h <= 16.0) {
+            if (from.squaredNorm() > 16.0 && to.squaredNorm() > 16.0) {
+                below = alpha_from < 0.0 && alpha_to > 0.0 ? kPi * std::erfc(h) : 0.0;
+            } else {
+                below = edge_integral(h * h, alpha_from, alpha_to);
+            }
+        }
+        const double share = sweep - below;
         mass += (orientation > 0.0 ? share : -share) / (2.0 * kPi);
     }
     return static_cast<float>(std::clamp(std::abs(mass), 0.0, 1.0));
@@ -208,6 +218,7 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
     // their coordinates is only near it, and a depth off the surface's plane would start
     // shadow and secondary cones below the surface.
     double plane_t = std::numeric_limits<double>::quiet_NaN();
+    bool edge_on = true;
     {
         const Vec2d o0 = vertices[0].offset.cast<double>();
         const Vec2d e1 = vertices[1].offset.cast<double>() - o0;
@@ -222,14 +233,22 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
             }
             // The depth is where the axis meets the triangle's plane even when it passes
             // beside the triangle, so that the triangles of one surface (and its points)
-            // agree on the depth at the axis; kept within the triangle's own depths, which a
-            // plane seen nearly edge-on would leave.
+            // agree on the depth at the axis — unless the plane is nearly edge-on to the axis
+            // (|n·d| below 0.05), where that depth runs away: kept within the triangle's own.
             plane_t = (1.0 - b1 - b2) * vertices[0].t + b1 * vertices[1].t + b2 * vertices[2].t;
+            const double dt1 = static_cast<double>(vertices[1].t) - vertices[0].t;
+            const double dt2 = static_cast<double>(vertices[2].t) - vertices[0].t;
+            // The plane's normal in ray coordinates (u, v, t): (e1, dt1) × (e2, dt2).
+            const Eigen::Vector3d normal(e1.y() * dt2 - dt1 * e2.y(), dt1 * e2.x() - e1.x() * dt2,
+                                         det);
+            edge_on = std::abs(det) < 0.05 * normal.norm();
         }
     }
     const float b0 = 1.0f - hit.b1 - hit.b2;
     hit.t = b0 * vertices[0].t + hit.b1 * vertices[1].t + hit.b2 * vertices[2].t;
-    if (std::isfinite(plane_t)) {
+    if (std::isfinite(plane_t) && !edge_on) {
+        hit.t = static_cast<float>(plane_t);
+    } else if (std::isfinite(plane_t)) {
         hit.t = static_cast<float>(std::clamp(
             plane_t, static_cast<double>(std::min({vertices[0].t, vertices[1].t, vertices[2].t})),
             static_cast<double>(std::max({vertices[0].t, vertices[1].t, vertices[2].t}))));
