@@ -11,6 +11,7 @@
 
 #include "common/math.h"
 
+#include <algorithm>
 #include <ostream>
 
 namespace mrt {
@@ -30,6 +31,9 @@ struct ConeSurface {
     /// Nearest-neighbour: that of the contributor with the largest weight `shape_weight`.
     Mat3f shape = Mat3f::Zero();
     float shape_weight = 0.0f;
+    /// Set by averaged(): the length of the weighted mean normal, 1 where the contributors
+    /// agree and less where the normals across the footprint spread (Toksvig 2005).
+    float normal_length = 1.0f;
 
     void add(const ConeSurface& p, float weight) {
         normal += weight * p.normal;
@@ -66,6 +70,7 @@ struct ConeSurface {
         const float inverse = 1.0f / weight;
         const float length = normal.norm();
         a.normal = length > 0.0f ? Vec3f(normal / length) : Vec3f::Zero();
+        a.normal_length = std::min(1.0f, length * inverse);
         a.diffuse = diffuse * inverse;
         a.specular = specular * inverse;
         a.phong_exponent = phong_exponent * inverse;
