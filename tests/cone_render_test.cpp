@@ -873,5 +873,50 @@ TEST(ConeRender, DepthOfFieldBlursOutsideTheFocalPlaneOnly) {
     EXPECT_LT(dof::total_variation(blurred), 0.7 * dof::total_variation(pinhole));
 }
 
+// ---------------------------------------------------------------------------------------------
+// 10. Blurry reflections: roughness widens the reflected cone.
+
+namespace glossy {
+
+/// The upright board of the depth-of-field test, seen above a mirror floor of the given
+/// roughness that reflects it into the image's lower half.
+json mirror_floor(double roughness) {
+    json scene = dof::facing_board(10.0, 0.0);
+    scene["camera"] = camera_json(vec(0, 1.5, 0), vec(0, -3, -10), 60, 64, 64);
+    scene["materials"]["mirror"] = {
+        {"diffuse", 0.05}, {"reflectivity", 0.9}, {"roughness", roughness}};
+    scene["objects"].push_back({{"shape", "quad"},
+                                {"size", {40, 40}},
+                                {"material", "mirror"},
+                                {"transform", {{"translate", {0, -8, -10}}}}});
+    return scene;
+}
+
+}  // namespace glossy
+
+TEST(ConeRender, RoughnessBlursReflectionsAsTheStochasticTracerDoes) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const Image sharp = ConeScene(scratch.path(), glossy::mirror_floor(0.0), "sharp.json")
+                            .render(64, 64)
+                            .render.image;
+    const ConeScene rough_scene(scratch.path(), glossy::mirror_floor(0.15), "rough.json");
+    const Image rough = rough_scene.render(64, 64).render.image;
+    const SceneBvh bvh(rough_scene.scene());
+    RenderOptions options = ConeScene::options(64, 64);
+    options.spp = 64;
+    options.fixed_spp = true;
+    const Image glossy_reference =
+        render_distributed(rough_scene.scene(), bvh, rough_scene.textures(), options).image;
+    const double rough_error = rmse(rough, glossy_reference);
+    const double sharp_error = rmse(sharp, glossy_reference);
+    record("rough_cone_rmse", rough_error);
+    record("sharp_cone_rmse", sharp_error);
+    // Measured at roughness 0.15: 0.047 against the sharp mirror's 0.113 (at 0.08 the blur is
+    // narrower than a tile's edge zone and the ratio 0.62; the reference's own noise is
+    // about 0.02).
+    EXPECT_LT(rough_error, 0.6 * sharp_error);
+    EXPECT_LT(dof::total_variation(rough), dof::total_variation(sharp));
+}
+
 }  // namespace
 }  // namespace mrt
