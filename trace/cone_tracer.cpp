@@ -329,8 +329,10 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
     const CameraRays camera(scene.camera, options.width, options.height);
     const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
     std::atomic<bool> stop{false};
-    const ConeTracer tracer(geometry, cone_options.traversal, max_depth, &stop);
     const float scale = cone_pixel_scale(options.filter);
+    ConeTraversalOptions traversal = cone_options.traversal;
+    traversal.texture_footprint_scale = 1.0f / scale;
+    const ConeTracer tracer(geometry, traversal, max_depth, &stop);
     const float aperture = scene.camera.aperture_radius;
     // The cone is the pixel's filter: each pixel's one sample is its value.
     Film film(options.width, options.height, PixelFilter::box());

@@ -574,7 +574,7 @@ class Walk {
         if (material.texture >= 0) {
             // The footprint at the hit, projected along the ray onto the triangle's plane
             // (Igehy's transfer), gives the texture-space footprint of the lookup (§4).
-            const Mat2f f = space.ray.cone.at(hit.t);
+            const Mat2f f = m_options.texture_footprint_scale * space.ray.cone.at(hit.t);
             RayDifferential footprint;
             footprint.dp_dx = space.ray.cone.u * f(0, 0) + space.ray.cone.v * f(1, 0);
             footprint.dp_dy = space.ray.cone.u * f(0, 1) + space.ray.cone.v * f(1, 1);

@@ -61,6 +61,10 @@ struct ConeTraversalOptions {
     /// §5.1: the footprint's minor axis is widened to at least 1/max_anisotropy of its major
     /// axis before levels are chosen and weights computed.
     float max_anisotropy = 8.0f;
+    /// Texture lookups on triangles filter over the footprint times this: the texture filter
+    /// (Igehy §4, OpenImageIO's derivatives) takes a pixel's spacing, while the primary cone is
+    /// scaled to the reconstruction filter's width (1/cone_pixel_scale, trace/cone_tracer.h).
+    float texture_footprint_scale = 1.0f;
 };
 
 /// What traversals did, for --stats; add up over rays and threads with +=.
