@@ -151,6 +151,18 @@ def main():
             "ratio": carried["always"]["median_render_seconds"]
             / carried["when-read"]["median_render_seconds"],
         }
+    cone = {r["scene"]: r for r in renders(work, "cone_cone")}
+    cone_whitted = {r["scene"]: r for r in renders(work, "cone_whitted")}
+    if cone:
+        report["cone_over_whitted"] = [{
+            "scene": scene, "width": cone[scene]["width"], "height": cone[scene]["height"],
+            "threads": cone[scene]["threads"], "runs": cone[scene]["runs"],
+            "median_render_seconds_cone": cone[scene]["median_render_seconds"],
+            "median_render_seconds_whitted": cone_whitted[scene]["median_render_seconds"],
+            "ratio": cone[scene]["median_render_seconds"]
+            / cone_whitted[scene]["median_render_seconds"],
+            "paper_ratio": 4.0,
+        } for scene in sorted(cone) if scene in cone_whitted]
     if glob.glob(os.path.join(work, "preprocess-*.json")):
         report["preprocessing"] = preprocessing(work)
         report["paper_preprocessing"] = PAPER_PREPROCESSING
