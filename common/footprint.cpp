@@ -187,12 +187,8 @@ SymmetricEigen2 symmetric_eigen2(float a, float b, float c) {
 FootprintCone FootprintCone::from_differential(const Vec3f& d, const RayDifferential& rd) {
     FootprintCone cone;
     orthonormal_basis(d, cone.u, cone.v);
-    // Components along d only move the footprint along the ray: to first order they do not
-    // change its section, so the projection is the dot product with u and v.
-    cone.start_dev << cone.u.dot(rd.dp_dx), cone.u.dot(rd.dp_dy), cone.v.dot(rd.dp_dx),
-        cone.v.dot(rd.dp_dy);
-    cone.incr_dev << cone.u.dot(rd.dd_dx), cone.u.dot(rd.dd_dy), cone.v.dot(rd.dd_dx),
-        cone.v.dot(rd.dd_dy);
+    cone.start_dev = cone.project(rd.dp_dx, rd.dp_dy);
+    cone.incr_dev = cone.project(rd.dd_dx, rd.dd_dy);
     return cone;
 }
 

@@ -140,6 +140,23 @@ struct FootprintCone {
     /// Projects a ray's differentials onto the plane orthogonal to its unit direction d.
     static FootprintCone from_differential(const Vec3f& d, const RayDifferential& rd);
 
+    /// The basis (u, v) as the columns of a 3×2 matrix: basis()·f gives the world vectors of
+    /// a footprint's columns, basis()ᵀ·[x y] the footprint of two vectors (their components
+    /// in the plane orthogonal to the ray: along the ray they move the footprint, to first
+    /// order, without changing its section).
+    Mat32f basis() const {
+        Mat32f b;
+        b.col(0) = u;
+        b.col(1) = v;
+        return b;
+    }
+    /// The footprint in this cone's frame of the two vectors x and y: basis()ᵀ·[x y].
+    Mat2f project(const Vec3f& x, const Vec3f& y) const {
+        Mat2f f;
+        f << u.dot(x), u.dot(y), v.dot(x), v.dot(y);
+        return f;
+    }
+
     /// The pixel footprint F(t) = start_dev + t·incr_dev alone, without the blur.
     Mat2f pixel_at(float t) const { return start_dev + t * incr_dev; }
     /// The footprint at t: F(t), or for a blurred cone the symmetric G with

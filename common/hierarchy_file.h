@@ -153,13 +153,19 @@ struct PointRefraction {
 static_assert(sizeof(PointRefraction) == 2);
 
 /// Where a stored point's surface lies, in its node's space: the voxel centre moved along the
-/// decoded normal by the decoded offset (PointOffset), what a tracer intersects.
+/// decoded normal by the decoded offset (PointOffset), what a tracer intersects; here from the
+/// decoded voxel centre, voxel side and normal.
+inline Vec3f point_position(const Vec3f& voxel_centre, float voxel, const Vec3f& normal,
+                            const PointOffset& offset) {
+    return voxel_centre + decode_offset8(offset.along_normal) * voxel * normal;
+}
+
+/// The same from the records alone.
 inline Vec3f point_position(const HierarchyNode& node, int grid, const PointCore& core,
                             const PointOffset& offset) {
     const Vec3f origin(node.origin[0], node.origin[1], node.origin[2]);
-    const float voxel = node.side / static_cast<float>(grid);
-    return decode_voxel(core.voxel, origin, node.side, grid) +
-           decode_offset8(offset.along_normal) * voxel * decode_normal(core.normal);
+    return point_position(decode_voxel(core.voxel, origin, node.side, grid),
+                          node.side / static_cast<float>(grid), decode_normal(core.normal), offset);
 }
 
 /// The records of a hierarchy, wherever they live (in memory before writing, or in the

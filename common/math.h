@@ -20,6 +20,7 @@ using Vec2i = Eigen::Vector2i;
 using Vec3i = Eigen::Vector3i;
 using Mat2f = Eigen::Matrix2f;
 using Mat3f = Eigen::Matrix3f;
+using Mat32f = Eigen::Matrix<float, 3, 2>;
 using Mat4f = Eigen::Matrix4f;
 /// Affine object-to-parent transform (rotation/scale/shear plus translation).
 using Affine3f = Eigen::Transform<float, 3, Eigen::Affine, Eigen::DontAlign>;
@@ -57,6 +58,8 @@ inline void orthonormal_basis(const Vec3f& n, Vec3f& t, Vec3f& b) {
 }
 
 /// Luminance of linear Rec.709 RGB.
-inline float luminance(const Rgb& c) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
+inline float luminance(const Rgb& c) {
+    return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2];
+}
 
 }  // namespace mrt

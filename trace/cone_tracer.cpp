@@ -40,19 +40,6 @@ float start_clearance(const Mat2f& start_footprint, float elevation, float half_
            half_interval;
 }
 
-/// The world vectors of a 2×2 footprint's columns in the cone's u/v frame.
-void footprint_vectors(const FootprintCone& cone, const Mat2f& f, Vec3f& x, Vec3f& y) {
-    x = cone.u * f(0, 0) + cone.v * f(1, 0);
-    y = cone.u * f(0, 1) + cone.v * f(1, 1);
-}
-
-/// A 2×2 footprint from two world vectors, in the frame of `cone`.
-Mat2f in_frame(const FootprintCone& cone, const Vec3f& x, const Vec3f& y) {
-    Mat2f f;
-    f << cone.u.dot(x), cone.u.dot(y), cone.v.dot(x), cone.v.dot(y);
-    return f;
-}
-
 /// Per-thread accumulators.
 struct ConeWork {
     ConeRenderStats stats;
@@ -91,14 +78,19 @@ class ConeTracer {
     /// the directional differentials (for a blurred cone, of the convolved footprint).
     static RayDifferential at_surface(const ConeRay& ray, float t, const Vec3f& n) {
         const FootprintCone& cone = ray.cone;
-        RayDifferential rd;
-        footprint_vectors(cone, cone.at(t), rd.dp_dx, rd.dp_dy);
+        const Mat2f footprint = cone.at(t);
         Mat2f growth = cone.incr_dev;
         if (cone.blurred) {
             const float step = 0.01f * std::max(t, 1e-6f);
-            growth = (cone.at(t + step) - cone.at(t)) / step;
+            growth = (cone.at(t + step) - footprint) / step;
         }
-        footprint_vectors(cone, growth, rd.dd_dx, rd.dd_dy);
+        const Mat32f position = cone.basis() * footprint;
+        const Mat32f direction = cone.basis() * growth;
+        RayDifferential rd;
+        rd.dp_dx = position.col(0);
+        rd.dp_dy = position.col(1);
+        rd.dd_dx = direction.col(0);
+        rd.dd_dy = direction.col(1);
         return rd.transfer(ray.direction, 0.0f, n);
     }
 
@@ -238,12 +230,12 @@ class ConeTracer {
         FootprintCone& cone = ray.cone;
         orthonormal_basis(light.wi, cone.u, cone.v);
         // The hit's footprint, shrinking to nothing at the light.
-        cone.start_dev = in_frame(cone, at_hit.dp_dx, at_hit.dp_dy);
+        cone.start_dev = cone.project(at_hit.dp_dx, at_hit.dp_dy);
         cone.incr_dev = -cone.start_dev / light.distance;
         if (area != nullptr) {
             // The light's ellipse, from nothing at the hit; a uniform disc of radius a has
             // the variance of the Gaussian exp(−|x|²/(a/√2)²).
-            const Mat2f ellipse = in_frame(cone, area->semi_axis_u, area->semi_axis_v);
+            const Mat2f ellipse = cone.project(area->semi_axis_u, area->semi_axis_v);
             cone.add_blur(Mat2f::Zero(), ellipse / (std::sqrt(2.0f) * light.distance));
         }
         const float t_min =

@@ -16,6 +16,13 @@ namespace mrt {
 
 namespace {
 
+/// The clip ellipse's radius in the units of the point weight's Gaussian (√ln 50).
+constexpr float kClipRadius = 1.977883f;
+/// A voxel centre beyond the clip ellipse by more than the largest stored surface offset can
+/// move it (a voxel side h, through G⁻¹, whose norm is at most 1/(β·h)) holds no point a cone
+/// weighs: rejected before its normal is decoded. Squared, in the Gaussian's units.
+constexpr float kCentreReachSquared =
+    (kClipRadius + 1.0f / kPointKernelRadius) * (kClipRadius + 1.0f / kPointKernelRadius);
 /// Where the tangent of the angle between a ray and a surface stops widening a point's depth
 /// tolerance: a point's own extent is half a voxel, and a wider interval from the (nearly
 /// weightless) points a closed object shows edge-on would glue its front and back into one
@@ -31,9 +38,9 @@ constexpr float kNodeFootprintVariation = 0.1f;
 /// How much wider than the weight's reach the node's one frame culls triangles before their
 /// exact per-vertex weight: more than the footprint's kNodeFootprintVariation across a node.
 constexpr float kCullMargin = 1.25f;
-/// A cone whose apex lies within √this of the triangle's size (or distance) from its plane
-/// left that plane (squared: 1e-5 relative, some hundred times float rounding).
-constexpr float kCoplanarTolerance = 1e-10f;
+/// A cone whose apex lies within this fraction of the triangle's size (or distance) from its
+/// plane left that plane: some hundred times float rounding.
+constexpr float kCoplanarTolerance = 1e-5f;
 /// How far from the apex, in starting radii of the cone (beyond the primitive's own size), the
 /// surface a cone leaves is recognised by passing within one starting radius of the apex.
 constexpr float kNearApex = 10.0f;
@@ -73,11 +80,8 @@ ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f&
     orthonormal_basis(space.ray.direction, cone.u, cone.v);
     // Offsets in the parent's u/v plane map by the linear part; to first order the object-space
     // section is their projection onto the plane orthogonal to the new axis.
-    const Vec3f mu = linear * parent.ray.cone.u;
-    const Vec3f mv = linear * parent.ray.cone.v;
-    Mat2f b;
-    b << cone.u.dot(mu), cone.u.dot(mv), cone.v.dot(mu), cone.v.dot(mv);
     const FootprintCone& from = parent.ray.cone;
+    const Mat2f b = cone.basis().transpose() * linear * from.basis();
     // Object t = scale · group t, so the increments per unit of t shrink by the scale.
     cone.start_dev = b * from.start_dev;
     cone.incr_dev = b * from.incr_dev / scale;
@@ -122,12 +126,11 @@ class Walk {
           m_buffer(buffer),
           m_stats(stats),
           m_t_min(t_min),
-          m_t_max(t_max),
-          m_widening_per_spacing(kPointKernelRadius) {}
+          m_t_max(t_max) {}
 
     void object(const ConeSpace& space, std::uint32_t index, float weight) {
         const HierarchyObject& object = m_view.objects[index];
-        visit(space, object.first_node, object.kind == HierarchyObjectKind::Group, weight);
+        visit(space, object.first_node, weight, false);
     }
 
   private:
@@ -154,8 +157,7 @@ class Walk {
         look.t_max = m_t_max / space.world_per_t;
         look.sphere = space.ray.sphere_of(to_vec(node.sphere_centre), node.sphere_radius);
         if (!cone_may_touch_sphere(look.sphere, space.ray.cone, m_options.max_anisotropy,
-                                   m_widening_per_spacing * spacing(node), look.t_min,
-                                   look.t_max)) {
+                                   kPointKernelRadius * spacing(node), look.t_min, look.t_max)) {
             return false;
         }
         if ((look.sphere.t - look.sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
@@ -169,7 +171,11 @@ class Walk {
         return true;
     }
 
-    void visit(const ConeSpace& space, std::uint32_t index, bool group, float weight) {
+    /// Steps 2 and 3 at one node. `finer`: the node stands one level below its parent's
+    /// points in their level blend, so its own points are used whatever the footprint, or where
+    /// it has none (a mesh leaf, an instance-tree node over one instance) everything below it
+    /// at whatever level the cone chooses there.
+    void visit(const ConeSpace& space, std::uint32_t index, float weight, bool finer) {
         const HierarchyNode& node = m_view.nodes[index];
         Look l;
         if (!look(space, node, l)) {
@@ -177,6 +183,10 @@ class Walk {
         }
         triangles(space, index, l, weight);
         if (m_options.points && node.point_count > 0) {
+            if (finer) {
+                points(space, index, l, weight);
+                return;
+            }
             const float h = spacing(node);
             const float min_diameter = 2.0f * std::sqrt(l.ellipse.minor);
             if (h <= min_diameter) {
@@ -185,35 +195,17 @@ class Walk {
                                          : 1.0f;
                 points(space, index, l, weight * coarse);
                 if (coarse < 1.0f) {
-                    below(space, node, group, weight * (1.0f - coarse), true);
+                    below(space, node, weight * (1.0f - coarse), true);
                 }
                 return;
             }
         }
-        below(space, node, group, weight, false);
-    }
-
-    /// A child's representation one level finer than its parent's points: its triangles and
-    /// its points, or where it has none (a mesh leaf, an instance-tree node over one instance)
-    /// everything below it at whatever level the cone chooses there.
-    void finer(const ConeSpace& space, std::uint32_t index, bool group, float weight) {
-        const HierarchyNode& node = m_view.nodes[index];
-        Look l;
-        if (!look(space, node, l)) {
-            return;
-        }
-        triangles(space, index, l, weight);
-        if (node.point_count > 0) {
-            points(space, index, l, weight);
-        } else {
-            below(space, node, group, weight, false);
-        }
+        below(space, node, weight, false);
     }
 
     /// The children, nearest first (early termination culls more behind a near surface), and
     /// the instances a group node holds.
-    void below(const ConeSpace& space, const HierarchyNode& node, bool group, float weight,
-               bool one_level) {
+    void below(const ConeSpace& space, const HierarchyNode& node, float weight, bool finer) {
         if (node.child_mask != 0) {
             std::array<std::pair<float, std::uint32_t>, 8> order;
             int count = 0;
@@ -232,11 +224,7 @@ class Walk {
             }
             for (int i = 0; i < count; ++i) {
                 const std::uint32_t child = order[static_cast<std::size_t>(i)].second;
-                if (one_level) {
-                    finer(space, child, group, weight);
-                } else {
-                    visit(space, child, group, weight);
-                }
+                visit(space, child, weight, finer);
             }
         }
         for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
@@ -305,11 +293,6 @@ class Walk {
         m_stats.level_weight += weight;
         const float h = spacing(node);
         const PointWeightFrame frame = point_weight_frame(l.footprint, h);
-        // A voxel centre whose offset from the axis is beyond the clip ellipse by more than
-        // the stored surface offset can move it (√3/2 voxels, through G⁻¹, whose norm is at
-        // most 1/(β·h)) holds no point the cone weighs: rejected before the normal is decoded.
-        const float reach = std::sqrt(kPointWeightClipExponent) + 0.8661f / kPointKernelRadius;
-        const float reach_squared = reach * reach;
         const Vec3f origin = to_vec(node.origin);
         // The widening adds (β·h)² to both eigenvalues.
         const float widening = kPointKernelRadius * h;
@@ -324,50 +307,48 @@ class Walk {
                 continue;
             }
             for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
-                point(space, node, m_geometry.point_order(j), frame, l, origin, reach_squared, h,
-                      weight);
+                point(space, node, m_geometry.point_order(j), frame, l, origin, h, weight);
             }
         }
     }
 
     void point(const ConeSpace& space, const HierarchyNode& node, std::uint32_t i,
-               const PointWeightFrame& frame, const Look& l, const Vec3f& origin,
-               float reach_squared, float h, float weight) {
-        {
-            ++m_stats.points_tested;
-            const PointCore& core = m_view.core[i];
-            const VertexInRayFrame centre =
-                space.ray.frame_of(decode_voxel(core.voxel, origin, node.side, m_view.grid));
-            if (!((frame.inverse * centre.offset).squaredNorm() <= reach_squared)) {
-                return;
-            }
-            const Vec3f normal = decode_normal(core.normal);
-            const Vec3f position = point_position(node, m_view.grid, core, m_view.offset[i]);
-            if (l.t_min > 0.0f && leaves(space, position, normal, kCoplanarPoint * h, 2.0f * h)) {
-                // As for triangles: the surface a cone leaves is not met again by the points
-                // that stand for it (a coarse level's points reach far across the start).
-                return;
-            }
-            const auto hit = intersect_cone_point(space.ray, frame, position, normal,
-                                                  decode_coverage8(core.coverage), l.t_min);
-            if (!hit || hit->t > l.t_max) {
-                return;
-            }
-            ++m_stats.points_hit;
-            const float cosine = normal.dot(space.ray.direction);
-            // Points of one surface agree on its depth at the axis (their tangent planes':
-            // ConePointHit), up to the curvature across the footprint; half a voxel, more
-            // where the surface is slanted, keeps a closed object's front and back (a few
-            // voxels apart at the level its cone uses) in fragments of their own.
-            const float tolerance =
-                0.5f * h * (1.0f + 0.5f * grazing_tangent(cosine, kPointToleranceTangent));
-            if constexpr (kShade) {
-                m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
-                                weight * hit->weight, point_surface(space, i, normal));
-            } else {
-                m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
-                                weight * hit->weight, {});
-            }
+               const PointWeightFrame& frame, const Look& l, const Vec3f& origin, float h,
+               float weight) {
+        ++m_stats.points_tested;
+        const PointCore& core = m_view.core[i];
+        const PointOffset offset = m_view.offset[i];
+        const Vec3f centre = decode_voxel(core.voxel, origin, node.side, m_view.grid);
+        if (!((frame.inverse * space.ray.frame_of(centre).offset).squaredNorm() <=
+              kCentreReachSquared)) {
+            return;
+        }
+        const Vec3f normal = decode_normal(core.normal);
+        const Vec3f position = point_position(centre, h, normal, offset);
+        if (l.t_min > 0.0f && leaves(space, position, normal, kCoplanarPoint * h, 2.0f * h)) {
+            // As for triangles: the surface a cone leaves is not met again by the points that
+            // stand for it (a coarse level's points reach far across the start).
+            return;
+        }
+        const auto hit = intersect_cone_point(space.ray, frame, position, normal,
+                                              decode_coverage8(core.coverage), l.t_min);
+        if (!hit || hit->t > l.t_max) {
+            return;
+        }
+        ++m_stats.points_hit;
+        // Points of one surface agree on its depth at the axis (their tangent planes':
+        // ConePointHit), up to the curvature across the footprint; half a voxel, more where the
+        // surface is slanted, keeps a closed object's front and back (a few voxels apart at the
+        // level its cone uses) in fragments of their own.
+        const float tolerance = 0.5f * h *
+                                (1.0f + 0.5f * grazing_tangent(normal.dot(space.ray.direction),
+                                                               kPointToleranceTangent));
+        if constexpr (kShade) {
+            m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
+                            weight * hit->weight, point_surface(space, i, normal));
+        } else {
+            m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
+                            weight * hit->weight, {});
         }
     }
 
@@ -392,7 +373,7 @@ class Walk {
                 const Vec3f tu = decode_tangent(mirror.tangent_angle, normal);
                 const Vec3f tv = normal.cross(tu);
                 const Mat2f g = decode_gradient(mirror.gradient);
-                Eigen::Matrix<float, 3, 2> frame;
+                Mat32f frame;
                 frame.col(0) = tu;
                 frame.col(1) = tv;
                 const Mat3f shape = frame * g * frame.transpose();
@@ -456,7 +437,7 @@ class Walk {
     }
 
     void triangle(const ConeSpace& space, std::uint32_t triangle, const Look& l, bool per_vertex,
-                  std::array<GaussianFrame, 3>& frames, float radius, float weight) {
+                  const std::array<GaussianFrame, 3>& frames, float radius, float weight) {
         {
             ++m_stats.triangles_tested;
             const auto& tri = m_view.triangles[triangle];
@@ -500,8 +481,8 @@ class Walk {
                 const float size = std::sqrt(std::max(edge1.squaredNorm(), edge2.squaredNorm()));
                 const float scale =
                     std::sqrt(std::max(size * size, (p[0] - space.ray.origin).squaredNorm()));
-                if (length > 0.0f && leaves(space, p[0], normal / length,
-                                            std::sqrt(kCoplanarTolerance) * scale, 2.0f * size)) {
+                if (length > 0.0f &&
+                    leaves(space, p[0], normal / length, kCoplanarTolerance * scale, 2.0f * size)) {
                     return;
                 }
             }
@@ -575,9 +556,10 @@ class Walk {
             // The footprint at the hit, projected along the ray onto the triangle's plane
             // (Igehy's transfer), gives the texture-space footprint of the lookup (§4).
             const Mat2f f = m_options.texture_footprint_scale * space.ray.cone.at(hit.t);
+            const Mat32f columns = space.ray.cone.basis() * f;
             RayDifferential footprint;
-            footprint.dp_dx = space.ray.cone.u * f(0, 0) + space.ray.cone.v * f(1, 0);
-            footprint.dp_dy = space.ray.cone.u * f(0, 1) + space.ray.cone.v * f(1, 1);
+            footprint.dp_dx = columns.col(0);
+            footprint.dp_dy = columns.col(1);
             const RayDifferential on_plane =
                 footprint.transfer(space.ray.direction, 0.0f, geometric);
             const SurfaceDifferential sd = triangle_differential(
@@ -606,7 +588,6 @@ class Walk {
     ConeTraversalStats& m_stats;
     float m_t_min;
     float m_t_max;
-    float m_widening_per_spacing;
     std::uint32_t m_spaces = 0;  ///< Spaces entered so far (the world is 0).
     static constexpr std::size_t kFrameCacheSize = 64;
     struct FrameCacheEntry {
@@ -752,10 +733,6 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
             m_triangle_clusters, m_triangle_order);
         c.triangle_cluster_count =
             static_cast<std::uint32_t>(m_triangle_clusters.size()) - c.first_triangle_cluster;
-    }
-    m_any_mirror = !m_view.mirror.empty();
-    for (const Material& material : scene.materials) {
-        m_any_mirror = m_any_mirror || material.reflects() || material.refracts();
     }
 }
 

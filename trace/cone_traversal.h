@@ -136,9 +136,6 @@ class ConeGeometry {
     /// linear part; unnormalised results).
     const Mat3f& normal_to_group(std::uint32_t i) const { return m_normal_to_group[i]; }
 
-    /// Whether any point or triangle can reflect or refract (the shape operator is wanted).
-    bool any_mirror() const { return m_any_mirror; }
-
     const ConeNodeClusters& clusters(std::uint32_t node) const { return m_node_clusters[node]; }
     const ConeCluster& point_cluster(std::uint32_t i) const { return m_point_clusters[i]; }
     const ConeCluster& triangle_cluster(std::uint32_t i) const { return m_triangle_clusters[i]; }
@@ -153,7 +150,6 @@ class ConeGeometry {
     const TextureSampler& m_textures;
     std::vector<Affine3f> m_to_object;
     std::vector<Mat3f> m_normal_to_group;
-    bool m_any_mirror = false;
     std::vector<ConeNodeClusters> m_node_clusters;
     std::vector<ConeCluster> m_point_clusters;
     std::vector<ConeCluster> m_triangle_clusters;

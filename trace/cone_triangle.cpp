@@ -196,12 +196,8 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
     // (below), and most triangles a node keeps are far from the cone: this saves the exact
     // weight for them.
     const float reach = triangle_clip_radius(weight);
-    for (int axis = 0; axis < 2; ++axis) {
-        const float lo = std::min({y[0][axis], y[1][axis], y[2][axis]});
-        const float hi = std::max({y[0][axis], y[1][axis], y[2][axis]});
-        if (lo > reach || hi < -reach) {
-            return std::nullopt;
-        }
+    if (misses_square(y, reach)) {
+        return std::nullopt;
     }
     const Vec2d closest =
         closest_to_origin(y[0].cast<double>(), y[1].cast<double>(), y[2].cast<double>());

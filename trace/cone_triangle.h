@@ -30,6 +30,7 @@
 #include "common/math.h"
 #include "trace/cone_ray.h"
 
+#include <algorithm>
 #include <array>
 #include <iosfwd>
 #include <optional>
@@ -64,11 +65,25 @@ struct ConeTriangleHit {
 /// be weighed: where the Gaussian (Coverage) or the paper's weight falls below the 2 % clip.
 float triangle_clip_radius(TriangleWeight weight);
 
+/// Whether the triangle with vertices `y` (in the Gaussian's units) lies wholly beyond the
+/// square |y_x|, |y_y| ≤ reach around the origin on one side: then it cannot come within
+/// reach. The cheap rejection of the many triangles far from a cone.
+inline bool misses_square(const std::array<Vec2f, 3>& y, float reach) {
+    for (int axis = 0; axis < 2; ++axis) {
+        const float lo = std::min({y[0][axis], y[1][axis], y[2][axis]});
+        const float hi = std::max({y[0][axis], y[1][axis], y[2][axis]});
+        if (lo > reach || hi < -reach) {
+            return true;
+        }
+    }
+    return false;
+}
+
 /// The hit of the cone with the triangle, or nothing when its closest point lies beyond the
 /// 2 % clip (triangle_clip_radius) or no vertex lies in front of t_min. The Coverage weight is
 /// the Gaussian's mass over the triangle over 0.98, the mass inside the clip circle: the
-/// triangles of a surface around the cone add up to at least 1. `frames` are the Gaussian frames at the vertices (PerVertex)
-/// or three copies of one (PerNode).
+/// triangles of a surface around the cone add up to at least 1. `frames` are the Gaussian frames at
+/// the vertices (PerVertex) or three copies of one (PerNode).
 std::optional<ConeTriangleHit> intersect_cone_triangle(
     const std::array<VertexInRayFrame, 3>& vertices, const std::array<GaussianFrame, 3>& frames,
     TriangleWeight weight, float t_min);
