@@ -216,8 +216,13 @@ Mat2f FootprintCone::clamp_anisotropy(const Mat2f& footprint, float max_anisotro
 
 Mat2f FootprintCone::clamp_anisotropy(const Mat2f& footprint, float max_anisotropy,
                                       SymmetricEigen2& clamped_ellipse) {
-    SymmetricEigen2& e = clamped_ellipse;
-    e = ellipse_of(footprint);
+    clamped_ellipse = ellipse_of(footprint);
+    return clamp_decomposed(footprint, max_anisotropy, clamped_ellipse);
+}
+
+Mat2f FootprintCone::clamp_decomposed(const Mat2f& footprint, float max_anisotropy,
+                                      SymmetricEigen2& ellipse) {
+    SymmetricEigen2& e = ellipse;
     const float floor = e.major / (max_anisotropy * max_anisotropy);
     if (e.minor >= floor) {
         return footprint;

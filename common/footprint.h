@@ -191,6 +191,10 @@ struct FootprintCone {
     /// The same, also giving the clamped footprint's ellipse (one decomposition for both).
     static Mat2f clamp_anisotropy(const Mat2f& footprint, float max_anisotropy,
                                   SymmetricEigen2& clamped_ellipse);
+    /// The same with the footprint's decomposition (ellipse_of) already known: `ellipse` holds
+    /// it on entry and the clamped one on return.
+    static Mat2f clamp_decomposed(const Mat2f& footprint, float max_anisotropy,
+                                  SymmetricEigen2& ellipse);
 
     /// The footprint convolved with the isotropic Gaussian exp(−|x|²/radius²) (radius in ray
     /// u/v units): Gaussians convolve by adding their squared matrices (Wand §4.2, after

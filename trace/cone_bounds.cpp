@@ -29,13 +29,26 @@ float reach_along(const FootprintCone& cone, float t, const Vec2f& e,
 
 }  // namespace
 
-bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
-                           float max_anisotropy, float widening, float t_min, float t_max) {
-    const float near = std::max(sphere.t - sphere.radius, t_min);
-    const float far = std::min(sphere.t + sphere.radius, t_max);
-    if (!std::isfinite(near) || !std::isfinite(far) || !sphere.offset.allFinite() ||
-        !cone.start_dev.allFinite() || !cone.incr_dev.allFinite() || !cone.blur_start.allFinite() ||
-        !cone.blur_incr.allFinite() || !std::isfinite(widening) || !(max_anisotropy >= 1.0f)) {
+namespace {
+
+/// The sphere's depths within [t_min, t_max], or false when the input is not finite (then the
+/// tests answer true).
+bool finite_input(const SphereInRayFrame& sphere, const FootprintCone& cone, float max_anisotropy,
+                  float widening, float t_min, float t_max, float& near, float& far) {
+    near = std::max(sphere.t - sphere.radius, t_min);
+    far = std::min(sphere.t + sphere.radius, t_max);
+    return std::isfinite(near) && std::isfinite(far) && sphere.offset.allFinite() &&
+           cone.start_dev.allFinite() && cone.incr_dev.allFinite() && cone.blur_start.allFinite() &&
+           cone.blur_incr.allFinite() && std::isfinite(widening) && max_anisotropy >= 1.0f;
+}
+
+}  // namespace
+
+bool cone_circle_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
+                                  float max_anisotropy, float widening, float t_min, float t_max) {
+    float near = 0.0f;
+    float far = 0.0f;
+    if (!finite_input(sphere, cone, max_anisotropy, widening, t_min, t_max, near, far)) {
         return true;
     }
     if (near > far) {
@@ -44,9 +57,9 @@ bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& 
     const float rho = std::sqrt(kPointWeightClipExponent);
     const float inverse_anisotropy_squared = 1.0f / (max_anisotropy * max_anisotropy);
     const float widening_squared = widening * widening;
-    // First a circle: |Fᵀe| ≤ ‖F‖_F along every e, so the ellipse's reach is at most
+    // |Fᵀe| ≤ ‖F‖_F along every e, so the ellipse's reach is at most
     // ρ·√(‖F‖_F²·(1 + 1/A²) + w²). Most spheres a cone is tested against are its node's
-    // siblings well off the axis; they fall here without the decomposition below.
+    // siblings well off the axis; they fall here without a decomposition.
     const auto circle = [&](float t) {
         const Mat2f f = cone.pixel_at(t);
         float frobenius = f.squaredNorm();
@@ -56,13 +69,26 @@ bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& 
         return frobenius * (1.0f + inverse_anisotropy_squared) + widening_squared;
     };
     const float circle_reach = rho * std::sqrt(std::max(circle(near), circle(far))) + sphere.radius;
-    if (sphere.offset.squaredNorm() > circle_reach * circle_reach) {
+    return !(sphere.offset.squaredNorm() > circle_reach * circle_reach);
+}
+
+bool cone_rectangle_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
+                                     float max_anisotropy, float widening, float t_min, float t_max,
+                                     const Vec2f& axis) {
+    float near = 0.0f;
+    float far = 0.0f;
+    if (!finite_input(sphere, cone, max_anisotropy, widening, t_min, t_max, near, far) ||
+        !axis.allFinite()) {
+        return true;
+    }
+    if (near > far) {
         return false;
     }
-    // Principal axes of the far footprint: any orthonormal pair would be conservative, these
-    // make the rectangle hug an anisotropic ellipse.
-    const SymmetricEigen2 axes = cone.ellipse(far);
-    for (const Vec2f& e : {axes.major_axis, axes.minor_axis}) {
+    const float rho = std::sqrt(kPointWeightClipExponent);
+    const float inverse_anisotropy_squared = 1.0f / (max_anisotropy * max_anisotropy);
+    const float widening_squared = widening * widening;
+    const Vec2f perpendicular(-axis.y(), axis.x());
+    for (const Vec2f& e : {axis, perpendicular}) {
         const float reach =
             rho * std::max(reach_along(cone, near, e, inverse_anisotropy_squared, widening_squared),
                            reach_along(cone, far, e, inverse_anisotropy_squared, widening_squared));
@@ -71,6 +97,18 @@ bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& 
         }
     }
     return true;
+}
+
+bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
+                           float max_anisotropy, float widening, float t_min, float t_max) {
+    if (!cone_circle_may_touch_sphere(sphere, cone, max_anisotropy, widening, t_min, t_max)) {
+        return false;
+    }
+    // Principal axes of the far footprint: any orthonormal pair would be conservative, these
+    // make the rectangle hug an anisotropic ellipse.
+    const float far = std::min(sphere.t + sphere.radius, t_max);
+    return cone_rectangle_may_touch_sphere(sphere, cone, max_anisotropy, widening, t_min, t_max,
+                                           cone.ellipse(far).major_axis);
 }
 
 }  // namespace mrt

@@ -14,10 +14,10 @@
 // raising the minor axis to ‖F‖/A at most (‖F‖ the spectral norm, bounded here by the
 // Frobenius norm). Along a unit direction e of the plane the clip ellipse (ρ² = ln 50) then
 // reaches at most ρ·√(|F(t')ᵀe|² + ‖F(t')‖_F²/A² + w²): the norm of a vector of affine
-// functions of t', convex in t', so its largest value over the sphere's depths is at one end. With
-// e the principal axes of the footprint at the far end, the cone's cross-sections over those depths
-// lie in the rectangle |x·eᵢ| ≤ hᵢ, and the disc misses it when |x·eᵢ| > hᵢ + r for an axis i (the
-// paper's square around the projected sphere).
+// functions of t', convex in t', so its largest value over the sphere's depths is at one end. For
+// any orthonormal pair eᵢ the cone's cross-sections over those depths lie in the rectangle
+// |x·eᵢ| ≤ hᵢ, and the disc misses it when |x·eᵢ| > hᵢ + r for an axis i (the paper's square
+// around the projected sphere); the footprint's principal axes make it hug the ellipse.
 
 #include "common/footprint.h"
 #include "common/math.h"
@@ -31,5 +31,15 @@ namespace mrt {
 /// cannot. Non-finite input is answered true, so a damaged value never hides geometry.
 bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
                            float max_anisotropy, float widening, float t_min, float t_max);
+
+/// The two steps of cone_may_touch_sphere, for a caller that decomposes the footprint at one of
+/// the sphere's depths anyway (the traversal, once per node): a circle around the ellipse,
+/// which needs no decomposition, then the rectangle along `axis` (unit; the footprint's major
+/// axis at some depth) and its perpendicular. The sphere may touch the cone when both say so.
+bool cone_circle_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
+                                  float max_anisotropy, float widening, float t_min, float t_max);
+bool cone_rectangle_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
+                                     float max_anisotropy, float widening, float t_min, float t_max,
+                                     const Vec2f& axis);
 
 }  // namespace mrt

@@ -156,18 +156,27 @@ class Walk {
         look.t_min = m_t_min / space.world_per_t;
         look.t_max = m_t_max / space.world_per_t;
         look.sphere = space.ray.sphere_of(to_vec(node.sphere_centre), node.sphere_radius);
-        if (!cone_may_touch_sphere(look.sphere, space.ray.cone, m_options.max_anisotropy,
-                                   kPointKernelRadius * spacing(node), look.t_min, look.t_max)) {
+        const FootprintCone& cone = space.ray.cone;
+        const float widening = kPointKernelRadius * spacing(node);
+        if (!cone_circle_may_touch_sphere(look.sphere, cone, m_options.max_anisotropy, widening,
+                                          look.t_min, look.t_max)) {
             return false;
         }
         if ((look.sphere.t - look.sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
             ++m_stats.culled_by_opacity;
             return false;
         }
-        ++m_stats.nodes_visited;
+        // The node's one decomposition (§5.2) gives the sphere test's axes too.
         const float t = std::clamp(look.sphere.t, look.t_min, look.t_max);
-        look.footprint = FootprintCone::clamp_anisotropy(space.ray.cone.at(t),
-                                                         m_options.max_anisotropy, look.ellipse);
+        const Mat2f footprint = cone.at(t);
+        look.ellipse = FootprintCone::ellipse_of(footprint);
+        if (!cone_rectangle_may_touch_sphere(look.sphere, cone, m_options.max_anisotropy, widening,
+                                             look.t_min, look.t_max, look.ellipse.major_axis)) {
+            return false;
+        }
+        ++m_stats.nodes_visited;
+        look.footprint =
+            FootprintCone::clamp_decomposed(footprint, m_options.max_anisotropy, look.ellipse);
         return true;
     }
 
@@ -272,15 +281,21 @@ class Walk {
 
     /// Whether a cluster's sphere may hold something within `reach` of the axis (a circle
     /// around the clip ellipse) between the look's depths.
-    static bool may_hold(const ConeSpace& space, const ConeCluster& cluster, const Look& l,
-                         float reach, float& depth) {
-        const VertexInRayFrame c = space.ray.frame_of(to_vec(cluster.centre));
+    template <class Sphere>
+    static bool may_hold(const ConeSpace& space, const Sphere& sphere, const Look& l, float reach,
+                         float& depth) {
+        const VertexInRayFrame c = space.ray.frame_of(to_vec(sphere.centre));
         depth = c.t;
-        if (c.t + cluster.radius < l.t_min || c.t - cluster.radius > l.t_max) {
+        if (c.t + sphere.radius < l.t_min || c.t - sphere.radius > l.t_max) {
             return false;
         }
-        const float r = reach + cluster.radius;
+        const float r = reach + sphere.radius;
         return !(c.offset.squaredNorm() > r * r);
+    }
+    template <class Sphere>
+    static bool may_hold(const ConeSpace& space, const Sphere& sphere, const Look& l, float reach) {
+        float depth = 0.0f;
+        return may_hold(space, sphere, l, reach, depth);
     }
 
     void points(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
@@ -429,7 +444,12 @@ class Walk {
                 frames = {frame, frame, frame};
                 cluster_radius = std::sqrt(ellipse.major);
             }
+            // The circle around the cull's ellipse (of the frame the triangle loop culls with).
+            const float triangle_reach = (per_vertex ? kCullMargin : 1.0f) * units * cluster_radius;
             for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
+                if (!may_hold(space, m_geometry.triangle_bound(j), l, triangle_reach)) {
+                    continue;
+                }
                 triangle(space, m_geometry.triangle_order(j), l, per_vertex, frames, cluster_radius,
                          weight);
             }
@@ -722,17 +742,28 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
         const auto centroid = [&](std::uint32_t t) {
             return Vec3f((vertex(t, 0) + vertex(t, 1) + vertex(t, 2)) / 3.0f);
         };
+        const auto extent = [&](std::uint32_t t) {
+            const Vec3f m = centroid(t);
+            return std::max(
+                {(vertex(t, 0) - m).norm(), (vertex(t, 1) - m).norm(), (vertex(t, 2) - m).norm()});
+        };
         c.first_triangle_cluster = static_cast<std::uint32_t>(m_triangle_clusters.size());
-        cluster(
-            node, items, centroid,
-            [&](std::uint32_t t) {
-                const Vec3f m = centroid(t);
-                return std::max({(vertex(t, 0) - m).norm(), (vertex(t, 1) - m).norm(),
-                                 (vertex(t, 2) - m).norm()});
-            },
-            m_triangle_clusters, m_triangle_order);
+        cluster(node, items, centroid, extent, m_triangle_clusters, m_triangle_order);
         c.triangle_cluster_count =
             static_cast<std::uint32_t>(m_triangle_clusters.size()) - c.first_triangle_cluster;
+    }
+    m_triangle_bounds.reserve(m_triangle_order.size());
+    for (const std::uint32_t t : m_triangle_order) {
+        const Vec3f m = Vec3f((to_vec(m_view.vertex_positions[m_view.triangles[t][0]]) +
+                               to_vec(m_view.vertex_positions[m_view.triangles[t][1]]) +
+                               to_vec(m_view.vertex_positions[m_view.triangles[t][2]])) /
+                              3.0f);
+        float r = 0.0f;
+        for (std::size_t i = 0; i < 3; ++i) {
+            r = std::max(r, (to_vec(m_view.vertex_positions[m_view.triangles[t][i]]) - m).norm());
+        }
+        // Rounding of the centre and of the ray frame's offsets: a relative margin.
+        m_triangle_bounds.push_back({{m.x(), m.y(), m.z()}, r * (1.0f + 1e-5f) + 1e-30f});
     }
 }
 

@@ -103,6 +103,15 @@ struct ConeCluster {
 };
 static_assert(sizeof(ConeCluster) == 24);
 
+/// One kept triangle's bounding sphere, stored in triangle_order(): a cone tests it before
+/// gathering the triangle's vertices (most triangles of a cluster the cone touches are still
+/// beyond its reach).
+struct ConeTriangleBound {
+    std::array<float, 3> centre;
+    float radius;
+};
+static_assert(sizeof(ConeTriangleBound) == 16);
+
 /// A node's clusters: [first, first + count) of the point or triangle clusters.
 struct ConeNodeClusters {
     std::uint32_t first_point_cluster = 0;
@@ -143,6 +152,8 @@ class ConeGeometry {
     std::uint32_t point_order(std::uint32_t i) const { return m_point_order[i]; }
     /// Triangle indices (into 'TRIS'), each node's its kept triangles permuted.
     std::uint32_t triangle_order(std::uint32_t i) const { return m_triangle_order[i]; }
+    /// The bounding sphere of triangle_order(i).
+    const ConeTriangleBound& triangle_bound(std::uint32_t i) const { return m_triangle_bounds[i]; }
 
   private:
     HierarchyView m_view;
@@ -155,6 +166,7 @@ class ConeGeometry {
     std::vector<ConeCluster> m_triangle_clusters;
     std::vector<std::uint32_t> m_point_order;
     std::vector<std::uint32_t> m_triangle_order;
+    std::vector<ConeTriangleBound> m_triangle_bounds;
 };
 
 class ConeTraversal {
