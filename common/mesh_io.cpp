@@ -1,6 +1,7 @@
 #include "common/mesh_io.h"
 
 #include "common/error.h"
+#include "common/position_weld.h"
 
 #include <fmt/format.h>
 #include <OpenMesh/Core/IO/IOManager.hh>
@@ -1239,40 +1240,17 @@ std::size_t assemble(const SoupImporter& soup, const std::vector<Corner>& corner
     return mesh.triangles.size();
 }
 
-struct PositionKey {
-    std::array<std::uint32_t, 3> bits;
-    bool operator==(const PositionKey&) const = default;
-};
-
-struct PositionKeyHash {
-    std::size_t operator()(const PositionKey& k) const {
-        std::uint64_t h = 0xcbf29ce484222325ULL;
-        for (const std::uint32_t b : k.bits) {
-            h = (h ^ b) * 0x100000001b3ULL;
-        }
-        return static_cast<std::size_t>(h);
-    }
-};
-
 /// Vertex normals computed as if vertices at the same position were one: files split vertices
 /// for texture seams (spot.obj) or between surface patches (teapot.obj), and STL has no sharing
 /// at all, yet the surface is smooth across those splits. Hard edges need normals in the file.
 void compute_welded_normals(Mesh& mesh) {
-    std::unordered_map<PositionKey, std::uint32_t, PositionKeyHash> representative;
-    std::vector<std::uint32_t> welded_index(mesh.positions.size());
+    std::vector<std::uint32_t> representative;
+    const std::vector<std::uint32_t> welded_index = weld_positions(
+        mesh.positions.size(), [&](std::size_t v) { return mesh.positions[v]; }, representative);
     Mesh welded;
-    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
-        // Adding +0 turns −0 into +0, so that the two zeros weld.
-        const Vec3f p = mesh.positions[v] + Vec3f::Zero();
-        const PositionKey key{{std::bit_cast<std::uint32_t>(p.x()),
-                               std::bit_cast<std::uint32_t>(p.y()),
-                               std::bit_cast<std::uint32_t>(p.z())}};
-        const auto [it, inserted] =
-            representative.try_emplace(key, static_cast<std::uint32_t>(welded.positions.size()));
-        if (inserted) {
-            welded.positions.push_back(p);
-        }
-        welded_index[v] = it->second;
+    welded.positions.reserve(representative.size());
+    for (const std::uint32_t v : representative) {
+        welded.positions.push_back(mesh.positions[v] + Vec3f::Zero());
     }
     welded.triangles.reserve(mesh.triangles.size());
     for (const auto& t : mesh.triangles) {
