@@ -184,33 +184,79 @@ Mesh make_checkerboard(float size_x, float size_z, int tiles_x, int tiles_z,
 
 namespace {
 
-/// Appends a tapering tube from `base` along `axis` (length = |axis|), radii r0 → r1.
-void add_tube(Mesh& mesh, const Vec3f& base, const Vec3f& axis, float r0, float r1, int sides,
-              std::uint32_t material) {
-    const Vec3f up = axis.normalized();
-    const Vec3f side_a =
+/// Appends a closed, tapering branch through `centres` with `radii` (one per centre): rings
+/// of `sides` vertices (plus a seam vertex for the uvs) shared by consecutive segments, their
+/// frames carried along by parallel transport so the rings do not twist, and a flat cap at
+/// each end. Closed, so that a tracer can tell its back faces from its front (the branch is a
+/// solid, thinner than a pixel from afar: two layers of coverage where there is one).
+void add_branch(Mesh& mesh, const std::vector<Vec3f>& centres, const std::vector<float>& radii,
+                int sides, std::uint32_t material) {
+    const std::size_t rings = centres.size();
+    const auto heading = [&](std::size_t r) {
+        // At a joint the mean of the two segments' directions: the ring bisects the bend.
+        const Vec3f in = r > 0 ? Vec3f(centres[r] - centres[r - 1]) : Vec3f::Zero();
+        const Vec3f out = r + 1 < rings ? Vec3f(centres[r + 1] - centres[r]) : Vec3f::Zero();
+        return Vec3f((in.normalized() + out.normalized()).normalized());
+    };
+    Vec3f up = heading(0);
+    Vec3f side_a =
         (std::abs(up.x()) < 0.9f ? Vec3f::UnitX() : Vec3f::UnitZ()).cross(up).normalized();
-    const Vec3f side_b = up.cross(side_a);
     const auto first = static_cast<std::uint32_t>(mesh.positions.size());
-    for (int end = 0; end < 2; ++end) {
+    const auto row = static_cast<std::uint32_t>(sides + 1);
+    for (std::size_t r = 0; r < rings; ++r) {
+        if (r > 0) {
+            up = heading(r);
+            side_a = (side_a - side_a.dot(up) * up).normalized();
+        }
+        const Vec3f side_b = up.cross(side_a);
         for (int i = 0; i <= sides; ++i) {
             const float phi =
                 2.0f * kPi * static_cast<float>(i % sides) / static_cast<float>(sides);
             const Vec3f radial = std::cos(phi) * side_a + std::sin(phi) * side_b;
-            mesh.positions.push_back(base + static_cast<float>(end) * axis +
-                                     (end == 0 ? r0 : r1) * radial);
+            mesh.positions.push_back(centres[r] + radii[r] * radial);
             mesh.normals.push_back(radial);
             mesh.uvs.emplace_back(static_cast<float>(i) / static_cast<float>(sides),
-                                  static_cast<float>(end));
+                                  static_cast<float>(r) / static_cast<float>(rings - 1));
         }
     }
-    const auto row = static_cast<std::uint32_t>(sides + 1);
-    for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(sides); ++i) {
-        const std::uint32_t a = first + i, b = a + 1, c = a + row, d = c + 1;
-        mesh.triangles.push_back({a, b, d});
-        mesh.triangles.push_back({a, d, c});
+    const auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        mesh.triangles.push_back({a, b, c});
         mesh.materials.push_back(material);
-        mesh.materials.push_back(material);
+    };
+    for (std::uint32_t r = 0; r + 1 < rings; ++r) {
+        for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(sides); ++i) {
+            const std::uint32_t a = first + r * row + i, b = a + 1, c = a + row, d = c + 1;
+            add(a, b, d);
+            add(a, d, c);
+        }
+    }
+    // The side's winding faces out (b − a runs with φ, d − a along the branch: their cross
+    // product is radial); each cap is wound the same way as seen from outside.
+    for (const std::size_t r : {std::size_t{0}, rings - 1}) {
+        const Vec3f normal = r == 0 ? Vec3f(-heading(0)) : heading(rings - 1);
+        const auto centre = static_cast<std::uint32_t>(mesh.positions.size());
+        mesh.positions.push_back(centres[r]);
+        mesh.normals.push_back(normal);
+        mesh.uvs.emplace_back(0.5f, r == 0 ? 0.0f : 1.0f);
+        // The cap's rim: its own vertices (flat normal), at the ring's positions.
+        const auto rim = static_cast<std::uint32_t>(mesh.positions.size());
+        for (int i = 0; i < sides; ++i) {
+            mesh.positions.push_back(
+                mesh.positions[first + r * row + static_cast<std::uint32_t>(i)]);
+            mesh.normals.push_back(normal);
+            mesh.uvs.emplace_back(0.5f, r == 0 ? 0.0f : 1.0f);
+        }
+        for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(sides); ++i) {
+            const std::uint32_t a = rim + i;
+            const std::uint32_t b = rim + (i + 1) % static_cast<std::uint32_t>(sides);
+            const Vec3f winding = (mesh.positions[b] - mesh.positions[a])
+                                      .cross(mesh.positions[centre] - mesh.positions[a]);
+            if (winding.dot(normal) > 0.0f) {
+                add(a, b, centre);
+            } else {
+                add(b, a, centre);
+            }
+        }
     }
 }
 
@@ -248,17 +294,19 @@ void grow_branch(Mesh& mesh, std::uint64_t key, const Vec3f& base, const Vec3f& 
     constexpr int kSegments = 4;
     Vec3f position = base;
     Vec3f heading = direction.normalized();
+    std::vector<Vec3f> centres{base};
+    std::vector<float> radii{radius};
     for (int s = 0; s < kSegments; ++s) {
         const Vec3f wobble(rng.uniform() - 0.5f, 0.3f * (rng.uniform() - 0.5f),
                            rng.uniform() - 0.5f);
         const Vec3f next_heading = (heading + 0.25f * wobble).normalized();
         const Vec3f axis = (length / kSegments) * next_heading;
-        const float r0 = radius * (1.0f - 0.6f * static_cast<float>(s) / kSegments);
-        const float r1 = radius * (1.0f - 0.6f * static_cast<float>(s + 1) / kSegments);
-        add_tube(mesh, position, axis, r0, r1, 6, stem);
         position += axis;
         heading = next_heading;
+        centres.push_back(position);
+        radii.push_back(radius * (1.0f - 0.6f * static_cast<float>(s + 1) / kSegments));
     }
+    add_branch(mesh, centres, radii, 6, stem);
     const Vec3f side = (std::abs(heading.y()) < 0.9f ? Vec3f::UnitY() : Vec3f::UnitX())
                            .cross(heading)
                            .normalized();

@@ -26,9 +26,9 @@ constexpr int kMaxPlantDepth = 8;
 /// Largest `leaves_per_branch` make_plant accepts.
 constexpr int kMaxPlantLeavesPerBranch = 1000;
 
-/// A plant: a tapering stem of `segments` cylinder rings that branches `depth` times, with
-/// leaves (curved, normal-interpolated blades of 8 triangles) along every branch, all of it
-/// deterministic in `seed`. About 1 unit tall, rooted at the origin, growing along +Y. Many
+/// A plant: a closed, tapering stem (rings shared by its 4 segments, capped at both ends: 60
+/// triangles) that branches `depth` times, with leaves (curved, normal-interpolated blades of 8
+/// triangles) along every branch, all of it deterministic in `seed`. About 1 unit tall, rooted at the origin, growing along +Y. Many
 /// small, thin, differently oriented triangles: the hard case for point sampling. Materials:
 /// `stem` for the branches, `leaf` for the leaves; uvs along and across each part. Throws Error
 /// unless depth ∈ [0, kMaxPlantDepth] and leaves_per_branch ∈ [0, kMaxPlantLeavesPerBranch].

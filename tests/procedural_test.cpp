@@ -385,8 +385,9 @@ TEST(Plant, IsDeterministicFiniteAndBranched) {
     const Mesh c = make_plant(8, 2, 6, 0, 1);
     ASSERT_EQ(a.positions, b.positions);
     EXPECT_NE(a.positions, c.positions);
-    // 1 + 3 + 9 branches of 4 rings × 6 sides × 2 triangles, each with 6 leaves of 8 triangles.
-    EXPECT_EQ(a.triangle_count(), 13u * (4 * 6 * 2 + 6 * 8));
+    // 1 + 3 + 9 branches of 4 segments × 6 sides × 2 triangles and two caps of 6, each with 6
+    // leaves of 8 triangles.
+    EXPECT_EQ(a.triangle_count(), 13u * (4 * 6 * 2 + 2 * 6 + 6 * 8));
     ASSERT_EQ(a.materials.size(), a.triangle_count());
     EXPECT_EQ(std::count(a.materials.begin(), a.materials.end(), 1u), 13 * 6 * 8);
     for (std::size_t v = 0; v < a.positions.size(); ++v) {

@@ -481,8 +481,9 @@ TEST(SceneLoader, PlantIsMakePlantWithTheSameParameters) {
     // Materials in file order: red is 0, glass is 1.
     const Mesh expected = make_plant(7, 2, 5, 1, 0);
     const Mesh& plant = scene.meshes[children[0].index];
-    // (3^3 − 1)/2 = 13 branches of 4 rings × 6 sides × 2 triangles, and 5 leaves of 8 each.
-    EXPECT_EQ(expected.triangle_count(), 13u * (48u + 5u * 8u));
+    // (3^3 − 1)/2 = 13 branches of 4 segments × 6 sides × 2 triangles and two caps of 6, and
+    // 5 leaves of 8 each.
+    EXPECT_EQ(expected.triangle_count(), 13u * (60u + 5u * 8u));
     EXPECT_EQ(plant.triangle_count(), expected.triangle_count());
     EXPECT_EQ(plant.positions, expected.positions);
     EXPECT_EQ(plant.materials, expected.materials);
@@ -499,7 +500,7 @@ TEST(SceneLoader, PlantDefaultsToSeedZeroDepthThreeAndSixLeavesPerBranch) {
                                   .json());
     ASSERT_EQ(scene.meshes.size(), 1u);
     const Mesh expected = make_plant(0, 3, 6, 0, 1);
-    EXPECT_EQ(scene.meshes[0].triangle_count(), 40u * (48u + 6u * 8u));
+    EXPECT_EQ(scene.meshes[0].triangle_count(), 40u * (60u + 6u * 8u));
     EXPECT_EQ(scene.meshes[0].triangle_count(), expected.triangle_count());
     EXPECT_EQ(scene.meshes[0].positions, expected.positions);
 }
