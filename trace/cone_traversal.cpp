@@ -65,7 +65,8 @@ struct ConeSpace {
     float world_per_t = 1.0f;  ///< World distance along the ray per unit of this space's t.
     Mat3f normal_to_world = Mat3f::Identity();  ///< Object normals → world (unnormalised).
     Mat3f to_object = Mat3f::Identity();        ///< World vectors → object vectors.
-    std::uint32_t id = 0;  ///< Unique within one traversal: keys the per-vertex frame cache.
+    std::uint32_t id = 0;      ///< Unique within one traversal: keys the per-vertex frame cache.
+    std::uint32_t object = 0;  ///< The object whose nodes the cone is in.
 };
 
 /// The cone of `parent` (in a group's space) in the space of an instance's object.
@@ -128,8 +129,9 @@ class Walk {
           m_t_min(t_min),
           m_t_max(t_max) {}
 
-    void object(const ConeSpace& space, std::uint32_t index, float weight) {
+    void object(ConeSpace& space, std::uint32_t index, float weight) {
         const HierarchyObject& object = m_view.objects[index];
+        space.object = index;
         visit(space, object.first_node, weight, false);
     }
 
@@ -260,6 +262,13 @@ class Walk {
         return entry.frame;
     }
 
+    /// How far from the apex the cone's rays start (its footprint at t = 0).
+    static float start_radius(const ConeSpace& space) {
+        const FootprintCone& cone = space.ray.cone;
+        return std::sqrt(cone.start_dev.squaredNorm() +
+                         (cone.blurred ? cone.blur_start.squaredNorm() : 0.0f));
+    }
+
     /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
     /// a cone leaving it starts on: its plane passes within `tolerance` of the apex — or within
     /// the cone's own starting radius when the primitive is near the apex, so a curved
@@ -272,9 +281,7 @@ class Walk {
         if (distance <= tolerance) {
             return true;
         }
-        const FootprintCone& cone = space.ray.cone;
-        const float start = std::sqrt(cone.start_dev.squaredNorm() +
-                                      (cone.blurred ? cone.blur_start.squaredNorm() : 0.0f));
+        const float start = start_radius(space);
         const float near = size + kNearApex * start;
         return distance <= start && apart.squaredNorm() <= near * near;
     }
@@ -313,6 +320,15 @@ class Walk {
         const float widening = kPointKernelRadius * h;
         const float clip_reach =
             std::sqrt(kPointWeightClipExponent * (l.ellipse.major + widening * widening));
+        // A solid seen from outside: its points facing away from the apex stand for its back.
+        const ClosedSurface* closed = nullptr;
+        if (m_options.cull_closed_back_faces) {
+            closed = m_geometry.closed_surfaces().of_object(space.object);
+            if (closed != nullptr &&
+                !closed->seen_from_outside(space.ray.origin, start_radius(space))) {
+                closed = nullptr;
+            }
+        }
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
@@ -322,14 +338,14 @@ class Walk {
                 continue;
             }
             for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
-                point(space, node, m_geometry.point_order(j), frame, l, origin, h, weight);
+                point(space, node, m_geometry.point_order(j), frame, l, origin, h, weight, closed);
             }
         }
     }
 
     void point(const ConeSpace& space, const HierarchyNode& node, std::uint32_t i,
                const PointWeightFrame& frame, const Look& l, const Vec3f& origin, float h,
-               float weight) {
+               float weight, const ClosedSurface* closed) {
         ++m_stats.points_tested;
         const PointCore& core = m_view.core[i];
         const PointOffset offset = m_view.offset[i];
@@ -340,6 +356,11 @@ class Walk {
         }
         const Vec3f normal = decode_normal(core.normal);
         const Vec3f position = point_position(centre, h, normal, offset);
+        if (closed != nullptr &&
+            closed->back_facing(position, normal, space.ray.origin, start_radius(space))) {
+            ++m_stats.back_faces_culled;
+            return;
+        }
         if (l.t_min > 0.0f && leaves(space, position, normal, kCoplanarPoint * h, 2.0f * h)) {
             // As for triangles: the surface a cone leaves is not met again by the points that
             // stand for it (a coarse level's points reach far across the start).
@@ -471,6 +492,16 @@ class Walk {
                 std::min({vertices[0].t, vertices[1].t, vertices[2].t}) > l.t_max) {
                 return;
             }
+            const Vec3f winding = (p[1] - p[0]).cross(p[2] - p[0]);
+            if (m_options.cull_closed_back_faces) {
+                const ClosedSurface* closed = m_geometry.closed_surfaces().of_triangle(triangle);
+                const float start = start_radius(space);
+                if (closed != nullptr && closed->seen_from_outside(space.ray.origin, start) &&
+                    closed->back_facing(p[0], winding, space.ray.origin, start)) {
+                    ++m_stats.back_faces_culled;
+                    return;
+                }
+            }
             if (per_vertex) {
                 // Culled with the node's (or cluster's) one frame, a margin wider than the
                 // footprint changes across the node; weighed with each vertex's own, so that
@@ -496,7 +527,7 @@ class Walk {
                 // its footprint makes of the triangles around the start.
                 const Vec3f edge1 = p[1] - p[0];
                 const Vec3f edge2 = p[2] - p[0];
-                const Vec3f normal = edge1.cross(edge2);
+                const Vec3f& normal = winding;
                 const float length = normal.norm();
                 const float size = std::sqrt(std::max(edge1.squaredNorm(), edge2.squaredNorm()));
                 const float scale =
@@ -524,7 +555,7 @@ class Walk {
                 return;
             }
             ++m_stats.triangles_hit;
-            const Vec3f geometric = (p[1] - p[0]).cross(p[2] - p[0]).normalized();
+            const Vec3f geometric = winding.normalized();
             // The depths a flat surface spans across the footprint.
             const float tolerance =
                 radius * (0.5f + grazing_tangent(geometric.dot(space.ray.direction),
@@ -630,6 +661,7 @@ ConeTraversalStats& ConeTraversalStats::operator+=(const ConeTraversalStats& o) 
     triangles_hit += o.triangles_hit;
     instances_entered += o.instances_entered;
     culled_by_opacity += o.culled_by_opacity;
+    back_faces_culled += o.back_faces_culled;
     point_nodes += o.point_nodes;
     level_sum += o.level_sum;
     level_weight += o.level_weight;
@@ -704,7 +736,7 @@ void cluster(const HierarchyNode& node, std::vector<std::uint32_t> items, Positi
 
 ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                            const TextureSampler& textures)
-    : m_view(view), m_scene(scene), m_textures(textures) {
+    : m_view(view), m_scene(scene), m_textures(textures), m_closed(m_view) {
     m_to_object.reserve(m_view.instances.size());
     m_normal_to_group.reserve(m_view.instances.size());
     for (const HierarchyInstance& instance : m_view.instances) {

@@ -34,6 +34,7 @@
 #include "common/scene.h"
 #include "common/texture.h"
 #include "trace/abuffer.h"
+#include "trace/closed_surfaces.h"
 #include "trace/cone_ray.h"
 #include "trace/cone_surface.h"
 #include "trace/cone_triangle.h"
@@ -65,6 +66,9 @@ struct ConeTraversalOptions {
     /// (Igehy §4, OpenImageIO's derivatives) takes a pixel's spacing, while the primary cone is
     /// scaled to the reconstruction filter's width (1/cone_pixel_scale, trace/cone_tracer.h).
     float texture_footprint_scale = 1.0f;
+    /// Skip the back faces of closed surfaces (trace/closed_surfaces.h) for cones whose apex
+    /// lies outside them: they would double a thin solid's coverage.
+    bool cull_closed_back_faces = true;
 };
 
 /// What traversals did, for --stats; add up over rays and threads with +=.
@@ -78,6 +82,7 @@ struct ConeTraversalStats {
     std::uint64_t triangles_hit = 0;      ///< … with a weight above the clip.
     std::uint64_t instances_entered = 0;  ///< Cones mapped into an instance's object space.
     std::uint64_t culled_by_opacity = 0;  ///< Nodes skipped behind an opaque fragment.
+    std::uint64_t back_faces_culled = 0;  ///< Triangles and points on a closed surface's back.
     /// Nodes whose points were used, and the sum of their levels (depth below their object's
     /// root) weighted by the blend weight they were used with: level_sum / level_weight is
     /// the mean level the cones chose.
@@ -144,6 +149,8 @@ class ConeGeometry {
     /// Instance i's map of object-space normals into group space (the inverse transpose of its
     /// linear part; unnormalised results).
     const Mat3f& normal_to_group(std::uint32_t i) const { return m_normal_to_group[i]; }
+    /// The closed surfaces of the meshes.
+    const ClosedSurfaces& closed_surfaces() const { return m_closed; }
 
     const ConeNodeClusters& clusters(std::uint32_t node) const { return m_node_clusters[node]; }
     const ConeCluster& point_cluster(std::uint32_t i) const { return m_point_clusters[i]; }
@@ -161,6 +168,7 @@ class ConeGeometry {
     const TextureSampler& m_textures;
     std::vector<Affine3f> m_to_object;
     std::vector<Mat3f> m_normal_to_group;
+    ClosedSurfaces m_closed;
     std::vector<ConeNodeClusters> m_node_clusters;
     std::vector<ConeCluster> m_point_clusters;
     std::vector<ConeCluster> m_triangle_clusters;

@@ -58,6 +58,7 @@ struct Arguments {
     float max_anisotropy = 8.0f;
     bool no_level_blend = false;
     bool node_frames = false;
+    bool keep_back_faces = false;
     std::string triangle_weight = "coverage";
 };
 
@@ -91,8 +92,8 @@ constexpr int kMaxSpp = 65536;
 /// Options that only some methods read must not be silently ignored by the others.
 void check_method_options(const CLI::App& app, const Arguments& args) {
     if (!is_cone(args.method)) {
-        for (const char* option :
-             {"--max-anisotropy", "--no-level-blend", "--node-frames", "--triangle-weight"}) {
+        for (const char* option : {"--max-anisotropy", "--no-level-blend", "--node-frames",
+                                   "--keep-back-faces", "--triangle-weight"}) {
             if (app.count(option) > 0) {
                 throw CLI::ValidationError(option, "only the cone methods take it");
             }
@@ -205,6 +206,7 @@ int run(const Arguments& args) {
         cone.traversal.points = args.method == "cone";
         cone.traversal.blend_levels = !args.no_level_blend;
         cone.traversal.node_frames = args.node_frames;
+        cone.traversal.cull_closed_back_faces = !args.keep_back_faces;
         cone.traversal.triangle_weight = args.triangle_weight == "paper"
                                              ? mrt::TriangleWeight::Paper
                                              : mrt::TriangleWeight::Coverage;
@@ -358,6 +360,9 @@ int main(int argc, char** argv) {
     app.add_flag("--node-frames", args.node_frames,
                  "cone methods: weigh a node's triangles with its one footprint decomposition "
                  "(5.2, faster, seams between nodes) instead of the footprint at each vertex");
+    app.add_flag("--keep-back-faces", args.keep_back_faces,
+                 "cone methods: also composite the back faces of closed surfaces seen from "
+                 "outside (doubles the coverage of thin solids where a cone covers part of them)");
     app.add_option("--triangle-weight", args.triangle_weight,
                    "cone methods: coverage (the footprint Gaussian's mass over the triangle) or "
                    "paper (exp(-(d-1/2)^2) of the closest point's distance, 4.5)")

@@ -29,6 +29,7 @@ nlohmann::json traversal_json(const ConeTraversalStats& s) {
             {"triangles_hit", s.triangles_hit},
             {"instances_entered", s.instances_entered},
             {"nodes_culled_by_opacity", s.culled_by_opacity},
+            {"back_faces_culled", s.back_faces_culled},
             {"point_nodes", s.point_nodes},
             {"mean_point_level",
              s.level_weight > 0.0 ? nlohmann::json(s.level_sum / s.level_weight) : nullptr},
