@@ -1050,5 +1050,58 @@ TEST(ConeRender, ThinSolidCoversWhatItsSilhouetteCovers) {
     EXPECT_GT(cone_both, 1.5 * cone);
 }
 
+// ---------------------------------------------------------------------------------------------
+// Soft shadows from an elliptical area light.
+
+/// A grey floor under a black square occluder 2 units up, lit by an elliptical light 5 units
+/// up and 1.5 to the side (semi-axes 1.2 and 0.6): the shadow falls a unit beside the square,
+/// its penumbra 1.6 and 0.8 units wide along the light's axes around a small umbra, seen from
+/// above at an angle. No ambient light: the shadow is all there is.
+json soft_shadow_scene(int resolution) {
+    return {{"camera", camera_json(vec(-1, 7, 6), vec(0, 0, 0), 40, resolution, resolution)},
+            {"background", 0},
+            {"ambient", 0},
+            {"materials", {{"grey", {{"diffuse", 0.6}}}, {"black", {{"diffuse", 0}}}}},
+            {"lights",
+             {{{"type", "ellipse"},
+               {"center", vec(1.5, 5, 0)},
+               {"semi_axis_u", vec(1.2, 0, 0)},
+               {"semi_axis_v", vec(0, 0, 0.6)},
+               {"radiance", 20.0}}}},
+            {"objects",
+             {{{"shape", "checkerboard"},
+               {"size", {8, 8}},
+               {"tiles", {8, 8}},
+               {"materials", {"grey", "grey"}}},
+              {{"shape", "quad"},
+               {"size", {1, 1}},
+               {"material", "black"},
+               {"transform", {{"translate", vec(0, 2, 0)}}}}}}};
+}
+
+TEST(ConeRender, SoftShadowsFollowTheDistributedTracersPenumbra) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const int resolution = 48;
+    const ConeScene scene(scratch.path(), soft_shadow_scene(resolution), "soft.json");
+    const SceneBvh bvh(scene.scene());
+    RenderOptions options = ConeScene::options(resolution, resolution);
+    options.spp = 256;
+    options.fixed_spp = true;
+    const Image reference = render_distributed(scene.scene(), bvh, scene.textures(), options).image;
+    options.spp = 1;
+    const Image hard = render_whitted(scene.scene(), bvh, scene.textures(), options).image;
+    const Image cone = scene.render(resolution, resolution).render.image;
+    const double cone_error = rmse(cone, reference);
+    const double hard_error = rmse(hard, reference);
+    record("cone_rmse", cone_error);
+    record("hard_shadow_rmse", hard_error);
+    record("mean_cone_over_reference", mean_value(cone) / mean_value(reference));
+    // The shadow cone's Gaussian stands for the light's uniform disc of the same variance
+    // (docs/cone-tracer.md): not its exact penumbra, but far closer than a hard shadow's.
+    // Measured: RMSE 0.0061 against the hard shadow’s 0.024 (a quarter); the mean 1.1 % high.
+    EXPECT_LT(cone_error, 0.5 * hard_error);
+    EXPECT_NEAR(mean_value(cone) / mean_value(reference), 1.0, 0.03);
+}
+
 }  // namespace
 }  // namespace mrt
