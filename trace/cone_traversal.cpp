@@ -329,12 +329,23 @@ class Walk {
                 closed = nullptr;
             }
         }
+        // In the Gaussian's units a cluster's sphere (around its points' positions, which lie
+        // within half a voxel of their voxels' centres) stretches by at most ‖G⁻¹‖ (bounded by
+        // the Frobenius norm): the circle around the clip ellipse passes a long thin cone's
+        // clusters along its minor axis, this test does not.
+        const float stretch = frame.inverse.norm();
+        const float centre_reach = std::sqrt(kCentreReachSquared);
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
             const ConeCluster& cluster = m_geometry.point_cluster(c);
             float depth = 0.0f;
             if (!may_hold(space, cluster, l, clip_reach, depth)) {
+                continue;
+            }
+            const float reach = centre_reach + (cluster.radius + 0.5f * h) * stretch;
+            if (!((frame.inverse * space.ray.frame_of(to_vec(cluster.centre)).offset)
+                      .squaredNorm() <= reach * reach)) {
                 continue;
             }
             for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
