@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 
 namespace {
 
@@ -208,6 +210,53 @@ TEST(MrtTraceCli, OptionsAMethodDoesNotReadAreRefused) {
     EXPECT_EQ(run_trace(distributed + "--time-budget 0").exit_code, 2);
     EXPECT_EQ(run_trace(base + "--filter gaussian:0").exit_code, 2);
     EXPECT_EQ(run_trace(base + "--filter tent").exit_code, 2);
+}
+
+TEST(MrtTraceCli, CropIsAWindowOfTheFrameAndItsMistakesAreNamed) {
+    const fs::path dir = temp_dir();
+    const std::string base =
+        scene_path() + " --width 32 --height 24 --threads 2 -o " + (dir / "x.exr").string() + " ";
+    for (const char* crop : {"0,0,33,24", "8,8,8,12", "-1,0,4,4", "1,2,3", "a,b,c,d", "0,0,4,4,"}) {
+        const TraceRun run = run_trace(base + "--crop " + crop);
+        EXPECT_NE(run.exit_code, 0) << crop;
+        EXPECT_NE(run.output.find("--crop"), std::string::npos) << run.output;
+        EXPECT_EQ(count_lines(run.output), 1) << run.output;
+    }
+    const TraceRun run =
+        run_trace(base + "--crop 4,2,20,14 --stats " + (dir / "stats.json").string());
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const nlohmann::json stats = nlohmann::json::parse(std::ifstream(dir / "stats.json"));
+    EXPECT_EQ(stats["width"], 32);
+    EXPECT_EQ(stats["crop"], nlohmann::json::array({4, 2, 20, 14}));
+}
+
+TEST(MrtTraceCli, CropsPastedByOiiotoolAreTheFullFrame) {
+    // The commands of docs/scaling.md: four windows rendered apart, pasted by
+    // scripts/paste-tiles (oiiotool).
+    if (std::system("oiiotool --version > /dev/null 2>&1") != 0) {
+        GTEST_SKIP() << "oiiotool is not installed";
+    }
+    const fs::path dir = temp_dir();
+    const std::string base = scene_path() + " --width 32 --height 24 --method distributed " +
+                             "--spp-max 8 --filter gaussian:1 --threads 2 -q ";
+    ASSERT_EQ(run_trace(base + "-o " + (dir / "full.exr").string()).exit_code, 0);
+    fs::create_directories(dir / "tiles");
+    for (const auto& [x0, y0] :
+         {std::pair{0, 0}, std::pair{16, 0}, std::pair{0, 12}, std::pair{16, 12}}) {
+        const std::string tile =
+            (dir / "tiles" / ("tile-" + std::to_string(x0) + "-" + std::to_string(y0) + ".exr"))
+                .string();
+        const std::string crop = std::to_string(x0) + "," + std::to_string(y0) + "," +
+                                 std::to_string(x0 + 16) + "," + std::to_string(y0 + 12);
+        ASSERT_EQ(run_trace(base + "--crop " + crop + " -o " + tile).exit_code, 0);
+    }
+    const std::string paste = std::string(MRT_SOURCE_DIR) + "/scripts/paste-tiles 32 24 " +
+                              (dir / "tiles").string() + " " + (dir / "pasted.exr").string();
+    ASSERT_EQ(std::system(paste.c_str()), 0) << paste;
+    // --fail 0: any difference at all fails.
+    const std::string diff = "oiiotool --fail 0 --failpercent 0 " + (dir / "full.exr").string() +
+                             " " + (dir / "pasted.exr").string() + " --diff > /dev/null";
+    EXPECT_EQ(std::system(diff.c_str()), 0) << diff;
 }
 
 }  // namespace

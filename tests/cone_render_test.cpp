@@ -1103,5 +1103,29 @@ TEST(ConeRender, SoftShadowsFollowTheDistributedTracersPenumbra) {
     EXPECT_NEAR(mean_value(cone) / mean_value(reference), 1.0, 0.03);
 }
 
+TEST(ConeRender, CropsPasteToTheFrameBitForBit) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const int width = 40;
+    const int height = 30;
+    const ConeScene scene(scratch.path(), invariance_scene(1.0, {0, 0, 0}, width, height),
+                          "crop.json");
+    RenderOptions options = ConeScene::options(width, height);
+    const Image full = render_cone(scene.geometry(), options, {}).render.image;
+    Image pasted(width, height);
+    for (const PixelWindow& window :
+         {PixelWindow{0, 0, 16, 11}, PixelWindow{16, 0, width, 11}, PixelWindow{0, 11, 16, height},
+          PixelWindow{16, 11, width, height}}) {
+        options.crop = window;
+        const Image part = render_cone(scene.geometry(), options, {}).render.image;
+        ASSERT_EQ(part.width(), window.width());
+        for (int y = 0; y < part.height(); ++y) {
+            for (int x = 0; x < part.width(); ++x) {
+                pasted.set(window.x0 + x, window.y0 + y, part.at(x, y));
+            }
+        }
+    }
+    EXPECT_EQ(max_abs_difference(full, pasted), 0.0);
+}
+
 }  // namespace
 }  // namespace mrt

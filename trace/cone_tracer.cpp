@@ -327,7 +327,7 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
     const ConeTracer tracer(geometry, traversal, max_depth, &stop);
     const float aperture = scene.camera.aperture_radius;
     // The cone is the pixel's filter: each pixel's one sample is its value.
-    Film film(options.width, options.height, PixelFilter::box());
+    Film film(options.width, options.height, PixelFilter::box(), options.crop);
     tbb::enumerable_thread_specific<ConeWork> work;
     const auto start = Clock::now();
     ConeRenderOutput out;

@@ -9,6 +9,7 @@
 #include "trace/ray_tree.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -46,7 +47,7 @@ class DistributedRenderer {
           m_camera(scene.camera, options.width, options.height),
           m_tree(scene, bvh, textures, options.max_depth >= 0 ? options.max_depth : scene.max_depth,
                  options.differentials),
-          m_film(options.width, options.height, options.filter),
+          m_film(options.width, options.height, options.filter, options.crop),
           m_moments(pixel_count()) {}
 
     std::size_t pixel_count() const {
@@ -54,14 +55,18 @@ class DistributedRenderer {
                static_cast<std::size_t>(m_options.height);
     }
     Film& film() { return m_film; }
+    /// Pixels of the window the image is rendered for.
+    std::size_t window_pixel_count() const { return m_film.window().area(); }
     const std::vector<PixelMoments>& moments() const { return m_moments; }
 
     /// One pass in which pixel i receives a new stratified batch of counts[i] samples (or
-    /// `uniform` samples everywhere when counts is empty). Returns the samples taken.
+    /// `uniform` samples everywhere when counts is empty), over the window and `margin` pixels
+    /// around it beyond the filter's reach. Returns the samples taken.
     std::uint64_t pass(const std::vector<int>& counts, int uniform, const std::string& label,
-                       RayCounters& rays) {
+                       RayCounters& rays, int margin) {
         const std::uint64_t seed = mix64(m_options.seed ^ mix64(0xd157'0000ULL + m_passes));
         ++m_passes;
+        std::atomic<std::uint64_t> samples{0};
         rays += m_film.add_pass(
             m_options.threads, label, m_options.quiet,
             [&](int x, int y, FilmTile& tile, RayCounters& counters) {
@@ -74,16 +79,11 @@ class DistributedRenderer {
                     const double l = luminance(sample(x, y, seed, k, count, tile, counters));
                     moments += PixelMoments{1, l, l * l};
                 }
-            });
-        std::uint64_t samples = 0;
-        if (counts.empty()) {
-            samples = pixel_count() * static_cast<std::uint64_t>(uniform);
-        } else {
-            for (const int c : counts) {
-                samples += static_cast<std::uint64_t>(c);
-            }
-        }
-        return samples;
+                samples.fetch_add(static_cast<std::uint64_t>(std::max(0, count)),
+                                  std::memory_order_relaxed);
+            },
+            margin);
+        return samples.load();
     }
 
     int passes() const { return m_passes; }
@@ -231,9 +231,12 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
     DistributedRenderer renderer(scene, bvh, textures, options);
     RenderOutput out;
     const std::vector<int> uniform;
-    auto timed_pass = [&](const std::vector<int>& counts, int count, const std::string& label) {
+    // A pass that a neighbourhood-variance pass follows covers the neighbourhood's reach
+    // beyond the window too, so that a crop's pixels are decided as in the whole frame.
+    auto timed_pass = [&](const std::vector<int>& counts, int count, const std::string& label,
+                          int margin = 0) {
         const auto pass_start = Clock::now();
-        const std::uint64_t samples = renderer.pass(counts, count, label, out.rays);
+        const std::uint64_t samples = renderer.pass(counts, count, label, out.rays, margin);
         out.samples += samples;
         out.last_pass_seconds = seconds_since(pass_start);
         return samples;
@@ -243,7 +246,7 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
         // Independent stratified batches: their spread measures the reference's own error.
         const int batches = reference_batch_count(options.spp);
         const int per_batch = (std::max(1, options.spp) + batches - 1) / batches;
-        const std::size_t values = renderer.pixel_count() * 3;
+        const std::size_t values = renderer.window_pixel_count() * 3;
         std::vector<double> sum(values, 0.0);
         std::vector<double> sum_squares(values, 0.0);
         for (int b = 0; b < batches; ++b) {
@@ -257,7 +260,8 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                 sum_squares[i] += v * v;
             }
         }
-        out.image = Image(options.width, options.height);
+        const PixelWindow window = output_window(options);
+        out.image = Image(window.width(), window.height());
         double squared_error = 0.0;
         const double n = batches;
         for (std::size_t i = 0; i < values; ++i) {
@@ -282,9 +286,11 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
         timed_pass(uniform, std::max(1, options.spp), "distributed");
     } else {
         const int initial = std::max(1, options.spp_initial);
-        const std::uint64_t first = timed_pass(uniform, initial, "distributed pass 1");
+        const std::uint64_t first =
+            timed_pass(uniform, initial, "distributed pass 1", kNeighbourhood / 2);
         if (options.time_budget > 0.0) {
-            const double pass_size = static_cast<double>(renderer.pixel_count()) *
+            // A time budget is the window's: it is spent where the window's pixels need it.
+            const double pass_size = static_cast<double>(renderer.window_pixel_count()) *
                                      static_cast<double>(std::max(2, initial));
             double seconds_per_sample = out.last_pass_seconds / static_cast<double>(first);
             while (true) {
@@ -293,7 +299,8 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                 // tiny passes are not worth their per-pass cost (variance, film merge).
                 const double budget = std::min(pass_size, 0.9 * remaining / seconds_per_sample);
                 if (remaining <= 0.0 ||
-                    budget < std::max(1.0, static_cast<double>(renderer.pixel_count()) / 32.0)) {
+                    budget <
+                        std::max(1.0, static_cast<double>(renderer.window_pixel_count()) / 32.0)) {
                     break;
                 }
                 const auto pass_start = Clock::now();
@@ -301,7 +308,8 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                     refinement_counts(renderer.neighbourhood_variance(), renderer.moments(),
                                       options, budget, renderer.passes());
                 const std::uint64_t samples = timed_pass(
-                    counts, 0, "distributed pass " + std::to_string(renderer.passes() + 1));
+                    counts, 0, "distributed pass " + std::to_string(renderer.passes() + 1),
+                    kNeighbourhood / 2);
                 if (samples == 0) {
                     break;
                 }

@@ -2,12 +2,12 @@
 
 namespace mrt {
 
-namespace {
-
-/// Pixels a sample reaches beyond its own: the filter's support beyond half a pixel.
 int filter_reach(const PixelFilter& filter) {
+    // The filter's support beyond half a pixel.
     return std::max(0, static_cast<int>(std::ceil(filter.radius - 0.5f)));
 }
+
+namespace {
 
 bool is_pixel_box(const PixelFilter& filter) {
     return filter.kind == PixelFilter::Kind::Box && filter.radius == 0.5f;
@@ -60,10 +60,11 @@ void FilmTile::add_sample(float raster_x, float raster_y, const Rgb& sample) {
     }
 }
 
-Film::Film(int width, int height, const PixelFilter& filter)
+Film::Film(int width, int height, const PixelFilter& filter, std::optional<PixelWindow> window)
     : m_width(width),
       m_height(height),
       m_filter(filter),
+      m_window(window.value_or(PixelWindow{0, 0, width, height})),
       m_pixels(static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {}
 
 void Film::merge(const FilmTile& tile) {
@@ -82,14 +83,14 @@ void Film::merge(const FilmTile& tile) {
 }
 
 Image Film::image() const {
-    Image image(m_width, m_height);
-    for (int y = 0; y < m_height; ++y) {
-        for (int x = 0; x < m_width; ++x) {
+    Image image(m_window.width(), m_window.height());
+    for (int y = m_window.y0; y < m_window.y1; ++y) {
+        for (int x = m_window.x0; x < m_window.x1; ++x) {
             const FilmPixel& p =
                 m_pixels[static_cast<std::size_t>(y) * static_cast<std::size_t>(m_width) +
                          static_cast<std::size_t>(x)];
             if (p.weight > 0.0) {
-                image.set(x, y,
+                image.set(x - m_window.x0, y - m_window.y0,
                           Rgb(static_cast<float>(p.sum[0] / p.weight),
                               static_cast<float>(p.sum[1] / p.weight),
                               static_cast<float>(p.sum[2] / p.weight)));

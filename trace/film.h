@@ -57,19 +57,31 @@ class FilmTile {
 
 class Film {
   public:
-    Film(int width, int height, const PixelFilter& filter);
+    /// A film for `window` of a width × height frame (the whole frame when empty). Samples are
+    /// placed in the frame's coordinates; image() is the window's.
+    Film(int width, int height, const PixelFilter& filter,
+         std::optional<PixelWindow> window = std::nullopt);
 
     int width() const { return m_width; }
     int height() const { return m_height; }
     const PixelFilter& filter() const { return m_filter; }
 
-    /// One pass over the image: `pixel(x, y, tile, counters)` is called once for every pixel,
-    /// tiles in parallel on `threads` workers (0 = all), and adds that pixel's samples of this
-    /// pass with tile.add_sample. Returns the rays cast, summed over threads.
+    /// One pass: `pixel(x, y, tile, counters)` is called once for every pixel of the frame's
+    /// tiles that lie within the filter's reach plus `margin` pixels of the window, tiles in
+    /// parallel on `threads` workers (0 = all), and adds that pixel's samples of this pass
+    /// with tile.add_sample. The window's pixels get exactly the sums the whole frame's render
+    /// gives them: the same tiles reach them, merged in the same order. Returns the rays cast,
+    /// summed over threads.
     template <typename PixelFunction>
-    RayCounters add_pass(int threads, const std::string& label, bool quiet, PixelFunction&& pixel);
+    RayCounters add_pass(int threads, const std::string& label, bool quiet, PixelFunction&& pixel,
+                         int margin = 0);
 
-    /// The filtered image: weighted mean of the samples around each pixel (0 where none).
+    /// Pixels the last pass called `pixel` for.
+    std::uint64_t last_pass_pixels() const { return m_last_pass_pixels; }
+    const PixelWindow& window() const { return m_window; }
+
+    /// The window's filtered image: weighted mean of the samples around each pixel (0 where
+    /// none).
     Image image() const;
 
     /// Forgets every sample.
@@ -81,30 +93,48 @@ class Film {
     int m_width;
     int m_height;
     PixelFilter m_filter;
+    PixelWindow m_window;
     std::vector<FilmPixel> m_pixels;
+    std::uint64_t m_last_pass_pixels = 0;
 };
 
+/// Pixels beyond its own that a sample reaches through `filter`.
+int filter_reach(const PixelFilter& filter);
+
 template <typename PixelFunction>
-RayCounters Film::add_pass(int threads, const std::string& label, bool quiet,
-                           PixelFunction&& pixel) {
+RayCounters Film::add_pass(int threads, const std::string& label, bool quiet, PixelFunction&& pixel,
+                           int margin) {
     const int tiles_x = (m_width + kTileSize - 1) / kTileSize;
     const int tiles_y = (m_height + kTileSize - 1) / kTileSize;
-    const int tile_count = tiles_x * tiles_y;
-    std::vector<std::optional<FilmTile>> tiles(static_cast<std::size_t>(tile_count));
+    // The frame's tiles that the window needs: those within reach of it. The same grid as the
+    // whole frame's, so that every tile is the same pixels and splats in the same order.
+    const int reach = filter_reach(m_filter) + std::max(0, margin);
+    const int x0 = std::max(0, m_window.x0 - reach);
+    const int y0 = std::max(0, m_window.y0 - reach);
+    const int x1 = std::min(m_width, m_window.x1 + reach);
+    const int y1 = std::min(m_height, m_window.y1 + reach);
+    std::vector<int> active;
+    for (int ty = y0 / kTileSize; ty * kTileSize < y1 && ty < tiles_y; ++ty) {
+        for (int tx = x0 / kTileSize; tx * kTileSize < x1 && tx < tiles_x; ++tx) {
+            active.push_back(ty * tiles_x + tx);
+        }
+    }
+    std::vector<std::optional<FilmTile>> tiles(active.size());
     tbb::enumerable_thread_specific<RayCounters> counters;
-    Progress progress(label, static_cast<std::uint64_t>(tile_count), quiet);
+    Progress progress(label, static_cast<std::uint64_t>(active.size()), quiet);
     tbb::task_arena arena(threads > 0 ? threads : tbb::this_task_arena::max_concurrency());
     arena.execute([&] {
-        tbb::parallel_for(0, tile_count, [&](int index) {
+        tbb::parallel_for(std::size_t{0}, active.size(), [&](std::size_t slot) {
             RayCounters& local = counters.local();
-            const int x0 = (index % tiles_x) * kTileSize;
-            const int y0 = (index / tiles_x) * kTileSize;
-            const int x1 = std::min(x0 + kTileSize, m_width);
-            const int y1 = std::min(y0 + kTileSize, m_height);
-            FilmTile& tile = tiles[static_cast<std::size_t>(index)].emplace(x0, y0, x1, y1, m_width,
-                                                                            m_height, m_filter);
-            for (int y = y0; y < y1; ++y) {
-                for (int x = x0; x < x1; ++x) {
+            const int index = active[slot];
+            const int tile_x0 = (index % tiles_x) * kTileSize;
+            const int tile_y0 = (index / tiles_x) * kTileSize;
+            const int tile_x1 = std::min(tile_x0 + kTileSize, m_width);
+            const int tile_y1 = std::min(tile_y0 + kTileSize, m_height);
+            FilmTile& tile = tiles[slot].emplace(tile_x0, tile_y0, tile_x1, tile_y1, m_width,
+                                                 m_height, m_filter);
+            for (int y = tile_y0; y < tile_y1; ++y) {
+                for (int x = tile_x0; x < tile_x1; ++x) {
                     pixel(x, y, tile, local);
                 }
             }
@@ -112,8 +142,15 @@ RayCounters Film::add_pass(int threads, const std::string& label, bool quiet,
         });
     });
     progress.finish();
+    m_last_pass_pixels = 0;
     for (const std::optional<FilmTile>& tile : tiles) {
         merge(*tile);
+    }
+    for (const int index : active) {
+        const int tile_x0 = (index % tiles_x) * kTileSize;
+        const int tile_y0 = (index / tiles_x) * kTileSize;
+        m_last_pass_pixels += static_cast<std::uint64_t>(std::min(kTileSize, m_width - tile_x0)) *
+                              static_cast<std::uint64_t>(std::min(kTileSize, m_height - tile_y0));
     }
     RayCounters total;
     for (const RayCounters& c : counters) {

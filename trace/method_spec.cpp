@@ -47,7 +47,7 @@ std::vector<std::string> split(const std::string& s, char separator) {
 const std::vector<std::string>& refused_option_keys() {
     static const std::vector<std::string> keys = {"output", "stats",  "quiet",     "width",
                                                   "height", "filter", "reference", "threads",
-                                                  "method", "seed"};
+                                                  "method", "seed",   "crop"};
     return keys;
 }
 

@@ -16,9 +16,11 @@
 #include "trace/scene_bvh.h"
 #include "trace/whitted.h"
 
+#include <fmt/format.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -49,6 +51,7 @@ struct Arguments {
     std::string differentials = "when-read";
     std::optional<int> width;
     std::optional<int> height;
+    std::string crop;
     int threads = 0;
     std::optional<int> max_depth;
     std::uint64_t seed = 0;
@@ -61,6 +64,43 @@ struct Arguments {
     bool keep_back_faces = false;
     std::string triangle_weight = "coverage";
 };
+
+/// The four integers of --crop X0,Y0,X1,Y1; a bad command line otherwise.
+std::array<int, 4> parse_crop(const std::string& text) {
+    std::array<int, 4> v{};
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+        const std::size_t end = i + 1 < v.size() ? text.find(',', at) : text.size();
+        bool ok = end != std::string::npos && at <= text.size();
+        const std::string field = ok ? text.substr(at, end - at) : std::string();
+        std::size_t used = 0;
+        ok = ok && !field.empty();
+        try {
+            v[i] = ok ? std::stoi(field, &used) : 0;
+        } catch (const std::exception&) {
+            ok = false;
+        }
+        if (!ok || used != field.size()) {
+            throw CLI::ValidationError(
+                "--crop", fmt::format("\"{}\": expected X0,Y0,X1,Y1 (four integers)", text));
+        }
+        at = end + 1;
+    }
+    return v;
+}
+
+/// --crop's window, which must be a non-empty part of the width × height frame.
+mrt::PixelWindow crop_window(const std::array<int, 4>& v, int width, int height) {
+    const mrt::PixelWindow window{v[0], v[1], v[2], v[3]};
+    if (window.x0 < 0 || window.y0 < 0 || window.x1 > width || window.y1 > height ||
+        window.x0 >= window.x1 || window.y0 >= window.y1) {
+        throw mrt::Error(fmt::format(
+            "--crop {},{},{},{}: expected a non-empty window of the {}×{} frame (0 ≤ X0 < X1 ≤ "
+            "{}, 0 ≤ Y0 < Y1 ≤ {}; X1 and Y1 exclusive)",
+            v[0], v[1], v[2], v[3], width, height, width, height));
+    }
+    return window;
+}
 
 bool is_cone(const std::string& method) {
     return method == "cone" || method == "cone-classic";
@@ -91,6 +131,9 @@ constexpr int kMaxSpp = 65536;
 
 /// Options that only some methods read must not be silently ignored by the others.
 void check_method_options(const CLI::App& app, const Arguments& args) {
+    if (!args.crop.empty()) {
+        parse_crop(args.crop);
+    }
     if (!is_cone(args.method)) {
         for (const char* option : {"--max-anisotropy", "--no-level-blend", "--node-frames",
                                    "--keep-back-faces", "--triangle-weight"}) {
@@ -149,6 +192,9 @@ int run(const Arguments& args) {
 
     mrt::RenderOptions options;
     std::tie(options.width, options.height) = image_size(scene.camera, args);
+    if (!args.crop.empty()) {
+        options.crop = crop_window(parse_crop(args.crop), options.width, options.height);
+    }
     options.filter = mrt::parse_pixel_filter(args.filter);
     options.texture_filter = mrt::parse_texture_filter(args.texture_filter);
     options.differentials = mrt::parse_differentials(args.differentials);
@@ -238,6 +284,7 @@ int run(const Arguments& args) {
         stats.scene = args.scene.string();
         stats.width = options.width;
         stats.height = options.height;
+        stats.crop = options.crop;
         stats.spp = out.spp;
         stats.filter = mrt::to_string(options.filter);
         stats.texture_filter = mrt::to_string(options.texture_filter);
@@ -341,6 +388,10 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1, 65536));
     app.add_option("--height", args.height, "Image height (default: the scene camera's)")
         ->check(CLI::Range(1, 65536));
+    app.add_option("--crop", args.crop,
+                   "X0,Y0,X1,Y1: render only this window of the frame (X1, Y1 exclusive), every "
+                   "pixel as in the full render; the image is the window's (for splitting a frame "
+                   "across machines: docs/scaling.md)");
     app.add_option("--threads", args.threads, "Worker threads (0 = all cores)")
         ->check(CLI::Range(0, 1024))
         ->default_val(0);

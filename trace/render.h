@@ -7,6 +7,7 @@
 #include "common/texture.h"
 #include "trace/pixel_filter.h"
 
+#include <cstddef>
 #include <cstdint>
 #include <iosfwd>
 #include <optional>
@@ -43,9 +44,29 @@ enum class Differentials {
 Differentials parse_differentials(const std::string& text);
 std::string to_string(Differentials differentials);
 
+/// A window of a frame: pixels [x0, x1) × [y0, y1).
+struct PixelWindow {
+    int x0 = 0;
+    int y0 = 0;
+    int x1 = 0;
+    int y1 = 0;
+
+    int width() const { return x1 - x0; }
+    int height() const { return y1 - y0; }
+    std::size_t area() const {
+        return static_cast<std::size_t>(width()) * static_cast<std::size_t>(height());
+    }
+    bool operator==(const PixelWindow&) const = default;
+};
+
 struct RenderOptions {
-    int width = 0;           ///< Image width in pixels.
-    int height = 0;          ///< Image height in pixels.
+    int width = 0;   ///< Frame width in pixels.
+    int height = 0;  ///< Frame height in pixels.
+    /// Render only this window of the frame (inside it, non-empty): the image is the window's,
+    /// every pixel of it as the full frame's render has it (the same per-pixel random streams;
+    /// the pixels around it whose samples the filter, or the adaptive pass's neighbourhood,
+    /// reaches are traced too). Empty: the whole frame.
+    std::optional<PixelWindow> crop;
     int spp = 1;             ///< Samples per pixel (whitted: 1 = the pixel centre).
     std::uint64_t seed = 0;  ///< Seed of every random stream.
     int threads = 0;         ///< Worker threads; 0 = all hardware threads.
@@ -77,6 +98,11 @@ struct RenderOutput {
 };
 
 std::ostream& operator<<(std::ostream& os, const RayCounters& c);
+
+/// The window an image is rendered for: the crop, or the whole frame.
+inline PixelWindow output_window(const RenderOptions& options) {
+    return options.crop.value_or(PixelWindow{0, 0, options.width, options.height});
+}
 
 /// Side of the square tiles the image is cut into.
 inline constexpr int kTileSize = 16;

@@ -61,6 +61,9 @@ void write_render_stats(const std::filesystem::path& file, const RenderStats& st
         {"scene", stats.scene},
         {"width", stats.width},
         {"height", stats.height},
+        {"crop", stats.crop ? nlohmann::json::array(
+                                  {stats.crop->x0, stats.crop->y0, stats.crop->x1, stats.crop->y1})
+                            : nlohmann::json(nullptr)},
         {"spp", stats.spp},
         {"threads", stats.threads},
         {"load_seconds", stats.load_seconds},

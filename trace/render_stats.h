@@ -17,8 +17,9 @@ namespace mrt {
 struct RenderStats {
     std::string method;
     std::string scene;
-    int width = 0;
+    int width = 0;  ///< The frame's.
     int height = 0;
+    std::optional<PixelWindow> crop;  ///< The window rendered, when not the whole frame.
     int spp = 0;
     int threads = 0;
     double load_seconds = 0.0;    ///< Reading the scene and its meshes.

@@ -20,7 +20,7 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Textu
     const WhittedTracer tracer(scene, bvh, textures, max_depth, options.differentials);
     const int spp = std::max(1, options.spp);
     const float scale = footprint_scale(spp);
-    Film film(options.width, options.height, options.filter);
+    Film film(options.width, options.height, options.filter, options.crop);
     const auto start = std::chrono::steady_clock::now();
     RenderOutput out;
     out.rays = film.add_pass(
@@ -41,8 +41,7 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Textu
         });
     out.image = film.image();
     out.spp = spp;
-    out.samples = static_cast<std::uint64_t>(spp) * static_cast<std::uint64_t>(options.width) *
-                  static_cast<std::uint64_t>(options.height);
+    out.samples = static_cast<std::uint64_t>(spp) * film.last_pass_pixels();
     out.render_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     out.last_pass_seconds = out.render_seconds;
