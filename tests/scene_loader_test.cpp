@@ -588,6 +588,31 @@ TEST(SceneLoader, ScaledUpFieldSceneInstancesTheSameGeometryPast100MTriangles) {
     EXPECT_EQ(scaled.meshes.size(), field.meshes.size());
 }
 
+// data/scenes/effects-*.json, from scripts/make-effects: the paper's Figure 8 effects, 512²,
+// each under one elliptical light.
+TEST(SceneLoader, EffectsScenesHoldTheirEffects) {
+    const fs::path scenes = fs::path(MRT_SOURCE_DIR) / "data" / "scenes";
+    for (const char* name :
+         {"effects-soft-shadows.json", "effects-depth-of-field.json", "effects-glossy.json"}) {
+        const Scene scene = load_scene(scenes / name);
+        EXPECT_EQ(scene.camera.width, 512) << name;
+        EXPECT_EQ(scene.camera.height, 512) << name;
+        EXPECT_EQ(scene.area_lights.size(), 1u) << name;
+    }
+    EXPECT_GE(plant_mesh_count(load_scene(scenes / "effects-soft-shadows.json")), 1u);
+    const Scene dof = load_scene(scenes / "effects-depth-of-field.json");
+    EXPECT_GT(dof.camera.aperture_radius, 0.0f);
+    EXPECT_GT(dof.camera.focal_distance, 0.0f);
+    std::vector<float> roughness;
+    for (const Material& m : load_scene(scenes / "effects-glossy.json").materials) {
+        if (m.reflectivity > 0.0f) {
+            roughness.push_back(m.roughness);
+        }
+    }
+    std::sort(roughness.begin(), roughness.end());
+    EXPECT_EQ(roughness, (std::vector<float>{0.03f, 0.1f, 0.25f}));
+}
+
 // ---- Paths -----------------------------------------------------------------------------------
 
 TEST(DataPath, SearchPathIsMrtDataEntriesThenSharedDataThenData) {
