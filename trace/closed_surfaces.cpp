@@ -27,6 +27,15 @@ struct EdgeUse {
 /// 53° of it may be missing. The Stanford bunny, with the five holes in its base, has 0.16.
 constexpr double kMaxHoleShare = 0.2;
 
+ClosedSurface surface(const Eigen::AlignedBox3d& box, float outward) {
+    const Eigen::Vector3f lower = box.min().cast<float>();
+    const Eigen::Vector3f upper = box.max().cast<float>();
+    return {{lower.x(), lower.y(), lower.z()},
+            {upper.x(), upper.y(), upper.z()},
+            outward,
+            static_cast<float>(1e-3 * box.diagonal().norm())};
+}
+
 std::uint32_t find(std::vector<std::uint32_t>& parent, std::uint32_t i) {
     while (parent[i] != i) {
         parent[i] = parent[parent[i]];
@@ -150,12 +159,8 @@ ClosedSurfaces::ClosedSurfaces(const HierarchyView& view)
                 all_closed = false;
                 continue;  // flat or damaged: no inside to speak of
             }
-            const auto lower = c.box.min().cast<float>();
-            const auto upper = c.box.max().cast<float>();
             surface_of[root] = static_cast<std::uint32_t>(m_surfaces.size());
-            m_surfaces.push_back({{lower.x(), lower.y(), lower.z()},
-                                  {upper.x(), upper.y(), upper.z()},
-                                  c.volume > 0.0 ? 1.0f : -1.0f});
+            m_surfaces.push_back(surface(c.box, c.volume > 0.0 ? 1.0f : -1.0f));
             object_box.extend(c.box);
         }
         // Whether the vertex normals (which the points' normals come from) point out of the
@@ -186,11 +191,8 @@ ClosedSurfaces::ClosedSurfaces(const HierarchyView& view)
         }
         if (all_closed && !surface_of.empty() && disagreeing <= 0.01 * (agreeing + disagreeing)) {
             // Its points' normals point out of the solid: the object's entry says +1.
-            const auto lower = object_box.min().cast<float>();
-            const auto upper = object_box.max().cast<float>();
             m_object_surface[o] = static_cast<std::uint32_t>(m_surfaces.size());
-            m_surfaces.push_back(
-                {{lower.x(), lower.y(), lower.z()}, {upper.x(), upper.y(), upper.z()}, 1.0f});
+            m_surfaces.push_back(surface(object_box, 1.0f));
         }
     }
 }

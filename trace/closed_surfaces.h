@@ -27,16 +27,17 @@ struct ClosedSurface {
     std::array<float, 3> upper;
     /// +1 when the winding's normal (p1 − p0) × (p2 − p0) points out of the solid, −1 when in.
     float outward;
+    /// A thousandth of the box's diagonal: rounding must not decide whether a cone that starts
+    /// on a surface touching the solid sees it from outside.
+    float slack;
 
     /// Whether `apex` lies outside the box by more than `margin` (the cone's starting radius)
-    /// and a thousandth of the box's size (rounding must not decide for a cone that starts on a
-    /// surface touching the solid): then every back face of the surface is hidden behind a
-    /// front face as seen from there.
+    /// and the slack: then every back face of the surface is hidden behind a front face as
+    /// seen from there.
     bool seen_from_outside(const Vec3f& apex, float margin) const {
-        const Vec3f lo(lower[0], lower[1], lower[2]);
-        const Vec3f hi(upper[0], upper[1], upper[2]);
-        const float m = margin + 1e-3f * (hi - lo).norm();
-        return (apex.array() < lo.array() - m).any() || (apex.array() > hi.array() + m).any();
+        const float m = margin + slack;
+        return apex.x() < lower[0] - m || apex.y() < lower[1] - m || apex.z() < lower[2] - m ||
+               apex.x() > upper[0] + m || apex.y() > upper[1] + m || apex.z() > upper[2] + m;
     }
     /// Whether the plane through `point` with normal `normal` (any length; the winding's, or
     /// for a whole object the outward one) faces away from every point within `margin` of

@@ -67,7 +67,14 @@ struct ConeSpace {
     Mat3f to_object = Mat3f::Identity();        ///< World vectors → object vectors.
     std::uint32_t id = 0;      ///< Unique within one traversal: keys the per-vertex frame cache.
     std::uint32_t object = 0;  ///< The object whose nodes the cone is in.
+    float start = 0.0f;        ///< How far from the apex the cone's rays start (start_radius).
 };
+
+/// How far from the apex a cone's rays start: its footprint at t = 0.
+float start_radius(const FootprintCone& cone) {
+    return std::sqrt(cone.start_dev.squaredNorm() +
+                     (cone.blurred ? cone.blur_start.squaredNorm() : 0.0f));
+}
 
 /// The cone of `parent` (in a group's space) in the space of an instance's object.
 ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f& normal_to_group) {
@@ -89,6 +96,7 @@ ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f&
     cone.blurred = from.blurred;
     cone.blur_start = b * from.blur_start;
     cone.blur_incr = b * from.blur_incr / scale;
+    space.start = start_radius(cone);
     space.world_per_t = parent.world_per_t / scale;
     space.normal_to_world = parent.normal_to_world * normal_to_group;
     space.to_object = linear * parent.to_object;
@@ -262,13 +270,6 @@ class Walk {
         return entry.frame;
     }
 
-    /// How far from the apex the cone's rays start (its footprint at t = 0).
-    static float start_radius(const ConeSpace& space) {
-        const FootprintCone& cone = space.ray.cone;
-        return std::sqrt(cone.start_dev.squaredNorm() +
-                         (cone.blurred ? cone.blur_start.squaredNorm() : 0.0f));
-    }
-
     /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
     /// a cone leaving it starts on: its plane passes within `tolerance` of the apex — or within
     /// the cone's own starting radius when the primitive is near the apex, so a curved
@@ -281,28 +282,27 @@ class Walk {
         if (distance <= tolerance) {
             return true;
         }
-        const float start = start_radius(space);
-        const float near = size + kNearApex * start;
-        return distance <= start && apart.squaredNorm() <= near * near;
+        const float near = size + kNearApex * space.start;
+        return distance <= space.start && apart.squaredNorm() <= near * near;
     }
 
     /// Whether a cluster's sphere may hold something within `reach` of the axis (a circle
     /// around the clip ellipse) between the look's depths.
+    /// `centre` receives the sphere's centre in the ray's frame.
     template <class Sphere>
     static bool may_hold(const ConeSpace& space, const Sphere& sphere, const Look& l, float reach,
-                         float& depth) {
-        const VertexInRayFrame c = space.ray.frame_of(to_vec(sphere.centre));
-        depth = c.t;
-        if (c.t + sphere.radius < l.t_min || c.t - sphere.radius > l.t_max) {
+                         VertexInRayFrame& centre) {
+        centre = space.ray.frame_of(to_vec(sphere.centre));
+        if (centre.t + sphere.radius < l.t_min || centre.t - sphere.radius > l.t_max) {
             return false;
         }
         const float r = reach + sphere.radius;
-        return !(c.offset.squaredNorm() > r * r);
+        return !(centre.offset.squaredNorm() > r * r);
     }
     template <class Sphere>
     static bool may_hold(const ConeSpace& space, const Sphere& sphere, const Look& l, float reach) {
-        float depth = 0.0f;
-        return may_hold(space, sphere, l, reach, depth);
+        VertexInRayFrame centre;
+        return may_hold(space, sphere, l, reach, centre);
     }
 
     void points(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
@@ -324,8 +324,7 @@ class Walk {
         const ClosedSurface* closed = nullptr;
         if (m_options.cull_closed_back_faces) {
             closed = m_geometry.closed_surfaces().of_object(space.object);
-            if (closed != nullptr &&
-                !closed->seen_from_outside(space.ray.origin, start_radius(space))) {
+            if (closed != nullptr && !closed->seen_from_outside(space.ray.origin, space.start)) {
                 closed = nullptr;
             }
         }
@@ -339,13 +338,12 @@ class Walk {
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
             const ConeCluster& cluster = m_geometry.point_cluster(c);
-            float depth = 0.0f;
-            if (!may_hold(space, cluster, l, clip_reach, depth)) {
+            VertexInRayFrame centre;
+            if (!may_hold(space, cluster, l, clip_reach, centre)) {
                 continue;
             }
             const float reach = centre_reach + (cluster.radius + 0.5f * h) * stretch;
-            if (!((frame.inverse * space.ray.frame_of(to_vec(cluster.centre)).offset)
-                      .squaredNorm() <= reach * reach)) {
+            if (!((frame.inverse * centre.offset).squaredNorm() <= reach * reach)) {
                 continue;
             }
             for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
@@ -368,7 +366,7 @@ class Walk {
         const Vec3f normal = decode_normal(core.normal);
         const Vec3f position = point_position(centre, h, normal, offset);
         if (closed != nullptr &&
-            closed->back_facing(position, normal, space.ray.origin, start_radius(space))) {
+            closed->back_facing(position, normal, space.ray.origin, space.start)) {
             ++m_stats.back_faces_culled;
             return;
         }
@@ -461,8 +459,8 @@ class Walk {
         for (std::uint32_t c = clusters.first_triangle_cluster;
              c < clusters.first_triangle_cluster + clusters.triangle_cluster_count; ++c) {
             const ConeCluster& cluster = m_geometry.triangle_cluster(c);
-            float depth = 0.0f;
-            if (!may_hold(space, cluster, l, reach, depth)) {
+            VertexInRayFrame centre;
+            if (!may_hold(space, cluster, l, reach, centre)) {
                 continue;
             }
             float cluster_radius = radius;
@@ -470,7 +468,7 @@ class Walk {
                 // The node's one footprint would be wrong across it: one per cluster instead
                 // (a cluster is a few triangles across).
                 SymmetricEigen2 ellipse;
-                FootprintCone::clamp_anisotropy(cone.at(std::clamp(depth, l.t_min, l.t_max)),
+                FootprintCone::clamp_anisotropy(cone.at(std::clamp(centre.t, l.t_min, l.t_max)),
                                                 m_options.max_anisotropy, ellipse);
                 const GaussianFrame frame = GaussianFrame::of_ellipse(ellipse);
                 frames = {frame, frame, frame};
@@ -506,9 +504,8 @@ class Walk {
             const Vec3f winding = (p[1] - p[0]).cross(p[2] - p[0]);
             if (m_options.cull_closed_back_faces) {
                 const ClosedSurface* closed = m_geometry.closed_surfaces().of_triangle(triangle);
-                const float start = start_radius(space);
-                if (closed != nullptr && closed->seen_from_outside(space.ray.origin, start) &&
-                    closed->back_facing(p[0], winding, space.ray.origin, start)) {
+                if (closed != nullptr && closed->seen_from_outside(space.ray.origin, space.start) &&
+                    closed->back_facing(p[0], winding, space.ray.origin, space.start)) {
                     ++m_stats.back_faces_culled;
                     return;
                 }
@@ -758,6 +755,7 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
     m_node_clusters.resize(m_view.nodes.size());
     m_point_order.reserve(m_view.core.size());
     m_triangle_order.reserve(m_view.node_triangles.size());
+    m_triangle_bounds.reserve(m_view.node_triangles.size());
     std::vector<std::uint32_t> items;
     for (std::size_t n = 0; n < m_view.nodes.size(); ++n) {
         const HierarchyNode& node = m_view.nodes[n];
@@ -791,22 +789,17 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                 {(vertex(t, 0) - m).norm(), (vertex(t, 1) - m).norm(), (vertex(t, 2) - m).norm()});
         };
         c.first_triangle_cluster = static_cast<std::uint32_t>(m_triangle_clusters.size());
+        const std::size_t first_ordered = m_triangle_order.size();
         cluster(node, items, centroid, extent, m_triangle_clusters, m_triangle_order);
         c.triangle_cluster_count =
             static_cast<std::uint32_t>(m_triangle_clusters.size()) - c.first_triangle_cluster;
-    }
-    m_triangle_bounds.reserve(m_triangle_order.size());
-    for (const std::uint32_t t : m_triangle_order) {
-        const Vec3f m = Vec3f((to_vec(m_view.vertex_positions[m_view.triangles[t][0]]) +
-                               to_vec(m_view.vertex_positions[m_view.triangles[t][1]]) +
-                               to_vec(m_view.vertex_positions[m_view.triangles[t][2]])) /
-                              3.0f);
-        float r = 0.0f;
-        for (std::size_t i = 0; i < 3; ++i) {
-            r = std::max(r, (to_vec(m_view.vertex_positions[m_view.triangles[t][i]]) - m).norm());
+        for (std::size_t j = first_ordered; j < m_triangle_order.size(); ++j) {
+            const std::uint32_t t = m_triangle_order[j];
+            const Vec3f m = centroid(t);
+            // Rounding of the centre and of the ray frame's offsets: a relative margin.
+            m_triangle_bounds.push_back(
+                {{m.x(), m.y(), m.z()}, extent(t) * (1.0f + 1e-5f) + 1e-30f});
         }
-        // Rounding of the centre and of the ray frame's offsets: a relative margin.
-        m_triangle_bounds.push_back({{m.x(), m.y(), m.z()}, r * (1.0f + 1e-5f) + 1e-30f});
     }
 }
 
@@ -820,6 +813,7 @@ void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffe
     ++stats.rays;
     ConeSpace world;
     world.ray = ray;
+    world.start = start_radius(ray.cone);
     Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max);
     walk.object(world, m_geometry.view().world_object, 1.0f);
 }
