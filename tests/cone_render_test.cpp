@@ -71,6 +71,16 @@ class ConeScene {
         return render_cone(m_geometry, options(width, height, threads), cone);
     }
 
+    /// The stochastic tracers' images of the same scene at `spp` samples per pixel (fixed,
+    /// stratified), against which the cone's are judged: the distributed tracer's soft
+    /// shadows, lens and glossy lobes, or whitted's point light and pinhole.
+    Image distributed(int width, int height, int spp) const {
+        return render_distributed(m_scene, bvh(), m_textures, sampled(width, height, spp)).image;
+    }
+    Image whitted(int width, int height, int spp) const {
+        return render_whitted(m_scene, bvh(), m_textures, sampled(width, height, spp)).image;
+    }
+
     /// Render options for a width × height image, box filter, no progress bar.
     static RenderOptions options(int width, int height, int threads = 2) {
         RenderOptions options;
@@ -83,6 +93,18 @@ class ConeScene {
     }
 
   private:
+    const SceneBvh& bvh() const {
+        if (!m_bvh) {
+            m_bvh = std::make_unique<SceneBvh>(m_scene);
+        }
+        return *m_bvh;
+    }
+    static RenderOptions sampled(int width, int height, int spp) {
+        RenderOptions o = options(width, height);
+        o.spp = spp;
+        o.fixed_spp = true;
+        return o;
+    }
     static Scene write_and_load(const fs::path& dir, const json& scene_json,
                                 const std::string& name) {
         std::ofstream(dir / name) << scene_json.dump(2);
@@ -101,6 +123,7 @@ class ConeScene {
     TextureSampler m_textures;
     HierarchyData m_data;
     ConeGeometry m_geometry;
+    mutable std::unique_ptr<SceneBvh> m_bvh;  ///< Built for the first reference image.
 };
 
 double seconds_since(Clock::time_point start) {
@@ -856,12 +879,7 @@ TEST(ConeRender, DepthOfFieldBlursOutsideTheFocalPlaneOnly) {
     const json blurred_json = dof::facing_board(5.0, 0.5);
     const ConeScene blurred_scene(scratch.path(), blurred_json, "blurred.json");
     const Image blurred = blurred_scene.render(64, 64).render.image;
-    const SceneBvh bvh(blurred_scene.scene());
-    RenderOptions options = ConeScene::options(64, 64);
-    options.spp = 64;
-    options.fixed_spp = true;
-    const Image lens =
-        render_distributed(blurred_scene.scene(), bvh, blurred_scene.textures(), options).image;
+    const Image lens = blurred_scene.distributed(64, 64, 64);
     const double cone_error = rmse(blurred, lens);
     const double pinhole_error = rmse(pinhole, lens);
     record("defocused_cone_rmse", cone_error);
@@ -901,12 +919,7 @@ TEST(ConeRender, RoughnessBlursReflectionsAsTheStochasticTracerDoes) {
                             .render.image;
     const ConeScene rough_scene(scratch.path(), glossy::mirror_floor(0.15), "rough.json");
     const Image rough = rough_scene.render(64, 64).render.image;
-    const SceneBvh bvh(rough_scene.scene());
-    RenderOptions options = ConeScene::options(64, 64);
-    options.spp = 64;
-    options.fixed_spp = true;
-    const Image glossy_reference =
-        render_distributed(rough_scene.scene(), bvh, rough_scene.textures(), options).image;
+    const Image glossy_reference = rough_scene.distributed(64, 64, 64);
     const double rough_error = rmse(rough, glossy_reference);
     const double sharp_error = rmse(sharp, glossy_reference);
     record("rough_cone_rmse", rough_error);
@@ -1017,12 +1030,7 @@ TEST(ConeRender, ThinSolidCoversWhatItsSilhouetteCovers) {
     const testing::ScratchDirectory scratch("mrt_cone_render_test");
     const int resolution = 48;
     const ConeScene scene(scratch.path(), bare_plant(resolution), "bare.json");
-    const SceneBvh bvh(scene.scene());
-    RenderOptions options = ConeScene::options(resolution, resolution);
-    options.spp = 256;
-    options.fixed_spp = true;
-    const double reference =
-        coverage_of(render_whitted(scene.scene(), bvh, scene.textures(), options).image);
+    const double reference = coverage_of(scene.whitted(resolution, resolution, 256));
     ConeOptions classic;
     classic.traversal.points = false;
     ConeOptions classic_both = classic;
@@ -1083,13 +1091,8 @@ TEST(ConeRender, SoftShadowsFollowTheDistributedTracersPenumbra) {
     const testing::ScratchDirectory scratch("mrt_cone_render_test");
     const int resolution = 48;
     const ConeScene scene(scratch.path(), soft_shadow_scene(resolution), "soft.json");
-    const SceneBvh bvh(scene.scene());
-    RenderOptions options = ConeScene::options(resolution, resolution);
-    options.spp = 256;
-    options.fixed_spp = true;
-    const Image reference = render_distributed(scene.scene(), bvh, scene.textures(), options).image;
-    options.spp = 1;
-    const Image hard = render_whitted(scene.scene(), bvh, scene.textures(), options).image;
+    const Image reference = scene.distributed(resolution, resolution, 256);
+    const Image hard = scene.whitted(resolution, resolution, 1);
     const Image cone = scene.render(resolution, resolution).render.image;
     const double cone_error = rmse(cone, reference);
     const double hard_error = rmse(hard, reference);
@@ -1116,15 +1119,9 @@ TEST(ConeRender, CropsPasteToTheFrameBitForBit) {
          {PixelWindow{0, 0, 16, 11}, PixelWindow{16, 0, width, 11}, PixelWindow{0, 11, 16, height},
           PixelWindow{16, 11, width, height}}) {
         options.crop = window;
-        const Image part = render_cone(scene.geometry(), options, {}).render.image;
-        ASSERT_EQ(part.width(), window.width());
-        for (int y = 0; y < part.height(); ++y) {
-            for (int x = 0; x < part.width(); ++x) {
-                pasted.set(window.x0 + x, window.y0 + y, part.at(x, y));
-            }
-        }
+        testing::paste(pasted, render_cone(scene.geometry(), options, {}).render.image, window);
     }
-    EXPECT_EQ(max_abs_difference(full, pasted), 0.0);
+    EXPECT_TRUE(testing::same_bits(full, pasted));
 }
 
 }  // namespace

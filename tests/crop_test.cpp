@@ -6,13 +6,13 @@
 #include "common/image.h"
 #include "common/scene_loader.h"
 #include "common/texture.h"
+#include "tests/test_support.h"
 #include "trace/distributed.h"
 #include "trace/scene_bvh.h"
 #include "trace/whitted.h"
 
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <functional>
 #include <string>
 #include <utility>
@@ -40,16 +40,6 @@ std::vector<PixelWindow> quarters(int sx, int sy) {
     return {{0, 0, sx, sy}, {sx, 0, kWidth, sy}, {0, sy, sx, kHeight}, {sx, sy, kWidth, kHeight}};
 }
 
-void paste(Image& frame, const Image& part, const PixelWindow& at) {
-    ASSERT_EQ(part.width(), at.width());
-    ASSERT_EQ(part.height(), at.height());
-    for (int y = 0; y < part.height(); ++y) {
-        for (int x = 0; x < part.width(); ++x) {
-            frame.set(at.x0 + x, at.y0 + y, part.at(x, y));
-        }
-    }
-}
-
 using Render = std::function<Image(const RenderOptions&)>;
 
 void expect_crops_paste_to_the_frame(const Render& render, RenderOptions options) {
@@ -64,14 +54,9 @@ void expect_crops_paste_to_the_frame(const Render& render, RenderOptions options
         Image pasted(kWidth, kHeight);
         for (const PixelWindow& window : quarters(sx, sy)) {
             options.crop = window;
-            paste(pasted, render(options), window);
+            testing::paste(pasted, render(options), window);
         }
-        ASSERT_EQ(full.data().size(), pasted.data().size());
-        // Bit for bit, not within a tolerance.
-        EXPECT_EQ(std::memcmp(full.data().data(), pasted.data().data(),
-                              full.data().size() * sizeof(float)),
-                  0)
-            << "split at " << sx << ", " << sy;
+        EXPECT_TRUE(testing::same_bits(full, pasted)) << "split at " << sx << ", " << sy;
     }
 }
 

@@ -3,6 +3,7 @@
 
 #include "common/data_path.h"
 #include "common/error.h"
+#include "common/image.h"
 #include "common/scene.h"
 #include "trace/render.h"
 
@@ -10,6 +11,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -65,6 +67,23 @@ inline Vec3d random_direction(std::mt19937_64& rng) {
         v = Vec3d(gauss(rng), gauss(rng), gauss(rng));
     } while (v.norm() < 1e-6);
     return v.normalized();
+}
+
+/// Copies `part`, rendered for `window` of a frame (RenderOptions::crop), into `frame`.
+inline void paste(Image& frame, const Image& part, const PixelWindow& window) {
+    ASSERT_EQ(part.width(), window.width());
+    ASSERT_EQ(part.height(), window.height());
+    for (int y = 0; y < part.height(); ++y) {
+        for (int x = 0; x < part.width(); ++x) {
+            frame.set(window.x0 + x, window.y0 + y, part.at(x, y));
+        }
+    }
+}
+
+/// Whether two images hold the same floats, bit for bit (not within a tolerance).
+inline bool same_bits(const Image& a, const Image& b) {
+    return a.width() == b.width() && a.height() == b.height() &&
+           std::memcmp(a.data().data(), b.data().data(), a.data().size() * sizeof(float)) == 0;
 }
 
 /// Render options for the scene camera's full image, without a progress bar.
