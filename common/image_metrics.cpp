@@ -143,18 +143,28 @@ double windowed_ssim(const std::vector<double>& x, const std::vector<double>& y,
     return total / (static_cast<double>(out_w) * static_cast<double>(out_h));
 }
 
-}  // namespace
-
-double rmse(const Image& image, const Image& reference) {
+/// RMSE over all pixels and channels of `value` of each channel value.
+template <class Value>
+double rmse_of(const Image& image, const Image& reference, Value value) {
     check_same_size(image, reference);
     const std::vector<float>& a = image.data();
     const std::vector<float>& b = reference.data();
     double sum = 0.0;
     for (std::size_t i = 0; i < a.size(); ++i) {
-        const double d = static_cast<double>(a[i]) - static_cast<double>(b[i]);
+        const double d = value(static_cast<double>(a[i])) - value(static_cast<double>(b[i]));
         sum += d * d;
     }
     return std::sqrt(sum / static_cast<double>(a.size()));
+}
+
+}  // namespace
+
+double rmse(const Image& image, const Image& reference) {
+    return rmse_of(image, reference, [](double v) { return v; });
+}
+
+double display_rmse(const Image& image, const Image& reference) {
+    return rmse_of(image, reference, [](double v) { return std::clamp(v, 0.0, 1.0); });
 }
 
 double psnr(const Image& image, const Image& reference, double peak) {

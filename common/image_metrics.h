@@ -8,6 +8,10 @@ namespace mrt {
 /// Root-mean-square error over all pixels and the three channels (linear values).
 double rmse(const Image& image, const Image& reference);
 
+/// The same over values clamped to [0, 1] first, as a display shows them: a few highlights far
+/// above 1 cannot outweigh the rest of the image.
+double display_rmse(const Image& image, const Image& reference);
+
 /// Peak signal-to-noise ratio in dB with peak value `peak` (default 1 for [0,1] linear images):
 /// 20·log10(peak / rmse); +inf for identical images.
 double psnr(const Image& image, const Image& reference, double peak = 1.0);

@@ -12,6 +12,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from plot_error_time import (ResultsError, build_curves, describe_time_to, fmt3,  # noqa: E402
                              fmt_count, level_key, load_results, run_reporting_errors)
+from headline import load_headline, scene_table  # noqa: E402
 
 
 def load_derived(path, results):
@@ -66,7 +67,8 @@ def seconds_text(x):
     return "—" if x is None else fmt3(x) + " s"
 
 
-def report(results, derived, command, image_dir, plot, montage, title="Error against run time"):
+def report(results, derived, command, image_dir, plot, montage, title="Error against run time",
+           headline=None, display_rmse=None):
     ref = results.reference
     base = derived["baseline"]
     time_word = "render" if derived["time"] == "render_seconds" else "total"
@@ -88,15 +90,25 @@ def report(results, derived, command, image_dir, plot, montage, title="Error aga
             f"![The runs' images and error images side by side]({img(montage)})", ""]
 
     out += ["## Runs", ""]
+    display = display_rmse or {}
     rows = [[run.method, f"`{run.spec}`", fmt3(run.render_seconds), fmt3(run.total_seconds),
-             fmt_count(run.rays), fmt3(run.rmse), fmt3(run.psnr), fmt3(run.ssim)]
+             fmt_count(run.rays), fmt3(run.rmse), fmt3(display.get(run.index)), fmt3(run.psnr),
+             fmt3(run.ssim)]
             for run in results.runs]
-    out.append(md_table(["method", "spec", "render s", "total s", "rays", "RMSE", "PSNR dB",
-                         "SSIM"], rows, ["---", "---"] + ["--:"] * 6))
+    out.append(md_table(["method", "spec", "render s", "total s", "rays", "RMSE",
+                         "display RMSE", "PSNR dB", "SSIM"], rows, ["---", "---"] + ["--:"] * 7))
+    out += ["", "Display RMSE is the RMSE of values clamped to [0, 1], as a screen shows them."]
     if derived.get("dominated_runs"):
         out += ["", "Dominated runs (slower than another run of the same method and no more "
                 "accurate), left out of the curves: "
                 + ", ".join(f"`{d['spec']}`" for d in derived["dominated_runs"]) + "."]
+
+    if headline:
+        out += ["", "## Headline ratios", "",
+                "Each is the quotient of two runs of this one comparison. mrt-compare searched "
+                "for the distributed time budgets that reach cone's RMSE and its display RMSE "
+                "and measured them (within 5 %); a bound (≤, ≥) means a run stopped at its guard "
+                "or the target lies beyond the budgets allowed.", "", scene_table(headline)]
 
     out += ["", "## Equal time and equal error", ""]
     out.append(f"The baseline is `{base['spec']}` ({base.get('chosen_as', 'baseline')}): "
@@ -170,8 +182,11 @@ def main(argv=None):
     def work():
         results = load_results(os.path.join(args.dir, "results.json"))
         derived = load_derived(os.path.join(args.dir, "derived.json"), results)
+        with open(os.path.join(args.dir, "results.json"), encoding="utf-8") as f:
+            raw_runs = json.load(f)["runs"]
+        display = {i: r.get("display_rmse") for i, r in enumerate(raw_runs)}
         text = report(results, derived, args.command, image_dir, args.plot, args.montage,
-                      args.title)
+                      args.title, load_headline(args.dir), display)
         if args.notes:
             with open(args.notes, encoding="utf-8") as f:
                 text += "\n## Reading the results\n\n" + f.read().strip() + "\n"

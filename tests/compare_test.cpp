@@ -135,22 +135,64 @@ TEST(MethodSpec, SlugKeepsOnlyFileNameSafeCharacters) {
 
 TEST(MethodSpec, DefaultRunsAreTheDocumentedSet) {
     std::vector<std::string> fixed;
-    std::vector<double> budgets;
+    std::vector<std::pair<double, std::string>> budgets;
+    std::vector<std::string> searches;
     for (const mrt::DefaultRun& run : mrt::default_runs()) {
-        if (run.budget_factor > 0.0) {
+        if (run.to_equal_error) {
+            searches.push_back(
+                mrt::default_run_spec(run) + " to " + run.budget_base() +
+                (run.measure == mrt::ErrorMeasure::DisplayRmse ? " display RMSE" : " RMSE"));
+        } else if (run.budget_factor > 0.0) {
             EXPECT_TRUE(run.method == "distributed" || run.method == "cone-classic") << run.method;
-            budgets.push_back(run.budget_factor);
+            budgets.emplace_back(run.budget_factor, run.budget_base());
         } else {
             fixed.push_back(mrt::default_run_spec(run));
         }
         mrt::parse_method_spec(mrt::default_run_spec(run));  // every entry is a valid spec
     }
-    EXPECT_EQ(fixed, (Args{"whitted", "whitted:spp=4", "distributed:spp-max=4",
-                           "distributed:spp-max=16", "distributed:spp-max=64", "cone"}));
-    // Distributed at 4×, 16×, 64× whitted's time; cone-classic stopped at 64×.
-    EXPECT_EQ(budgets, (std::vector<double>{4.0, 16.0, 64.0, 64.0}));
+    EXPECT_EQ(fixed,
+              (Args{"whitted", "whitted:spp=4", "distributed:spp-max=4", "distributed:spp-max=16",
+                    "distributed:spp-max=64", "cone", "cone:max-depth=0"}));
+    // Distributed at 4×, 16×, 64× whitted's time; cone-classic stopped at 64×; primary rays of
+    // cone-classic stopped at 16× cone's; distributed at cone's time.
+    using Budgets = std::vector<std::pair<double, std::string>>;
+    EXPECT_EQ(budgets, (Budgets{{4.0, "whitted"},
+                                {16.0, "whitted"},
+                                {64.0, "whitted"},
+                                {64.0, "whitted"},
+                                {16.0, "cone:max-depth=0"},
+                                {1.0, "cone"}}));
+    EXPECT_EQ(searches, (Args{"distributed to cone RMSE", "distributed to cone display RMSE"}));
     EXPECT_EQ(mrt::baseline_spec(), "whitted");
     EXPECT_EQ(mrt::default_run_spec(mrt::default_runs().front()), mrt::baseline_spec());
+    // A run's budget is measured against a fixed run that comes before it.
+    for (std::size_t i = 0; i < mrt::default_runs().size(); ++i) {
+        const mrt::DefaultRun& run = mrt::default_runs()[i];
+        if (run.budget_factor > 0.0) {
+            const bool before = std::any_of(
+                mrt::default_runs().begin(), mrt::default_runs().begin() + static_cast<long>(i),
+                [&](const mrt::DefaultRun& r) {
+                    return r.budget_factor == 0.0 && mrt::default_run_spec(r) == run.budget_base();
+                });
+            EXPECT_TRUE(before) << mrt::default_run_spec(run);
+        }
+    }
+}
+
+TEST(MethodSpec, TimeBudgetsAreReadBackOnlyFromTheirOwnKindOfSpec) {
+    mrt::DefaultRun distributed;
+    distributed.method = "distributed";
+    EXPECT_EQ(mrt::time_budget_of(mrt::spec_with_budget(distributed, 0.1234), distributed), 0.123);
+    EXPECT_EQ(mrt::time_budget_of("distributed:time-budget=2", distributed), 2.0);
+    EXPECT_FALSE(mrt::time_budget_of("distributed:spp-max=4", distributed));
+    EXPECT_FALSE(mrt::time_budget_of("distributed:time-budget=2,spp-max=4", distributed));
+    EXPECT_FALSE(mrt::time_budget_of("distributed:time-budget=", distributed));
+    EXPECT_FALSE(mrt::time_budget_of("cone-classic:time-budget=2", distributed));
+    mrt::DefaultRun classic;
+    classic.method = "cone-classic";
+    classic.options = "max-depth=0";
+    EXPECT_EQ(mrt::time_budget_of("cone-classic:max-depth=0,time-budget=1.5", classic), 1.5);
+    EXPECT_FALSE(mrt::time_budget_of("cone-classic:time-budget=1.5", classic));
 }
 
 TEST(MethodSpec, BudgetsHaveThreeSignificantDigitsAndAFloor) {
@@ -380,8 +422,8 @@ TEST(ComparisonReport, InfinitePsnrIsNullInJsonAndInfInCsv) {
     std::getline(csv, row2);
     EXPECT_EQ(header,
               "method,spec,render_seconds,total_seconds,wall_seconds,rays,samples,rmse,psnr,"
-              "ssim,image,error_image,stats,stopped");
-    EXPECT_EQ(row1, "whitted,whitted,0.1,0.30000000000000004,0,12,,0,inf,1,,,,false");
+              "ssim,image,error_image,stats,stopped,display_rmse");
+    EXPECT_EQ(row1, "whitted,whitted,0.1,0.30000000000000004,0,12,,0,inf,1,,,,false,0");
     EXPECT_TRUE(contains(row2, ",\"distributed:spp-max=4,spp-initial=2\",")) << row2;
     std::ostringstream table;
     mrt::print_results_table(table, c);
@@ -423,7 +465,7 @@ Args small(Args args) {
 /// Checks every file of a finished comparison in `out` and every number of results.json
 /// against a recomputation from the written images and stats; returns results.json.
 /// The stdout table's rows agree with results.json (to the digits printed): columns are
-/// #, spec, render s, total s, rays, RMSE, PSNR, SSIM.
+/// #, spec, render s, total s, rays, RMSE, display RMSE, PSNR, SSIM.
 void check_table(const std::string& table, const json& results) {
     std::map<std::string, std::vector<std::string>> rows;
     std::istringstream in(table);
@@ -434,7 +476,7 @@ void check_table(const std::string& table, const json& results) {
         for (std::string w; fields >> w;) {
             f.push_back(w);
         }
-        if (f.size() == 8) {
+        if (f.size() == 9) {
             rows[f[1]] = f;
         }
     }
@@ -445,12 +487,15 @@ void check_table(const std::string& table, const json& results) {
         EXPECT_NEAR(std::stod(f[5]), run["rmse"].get<double>(),
                     5e-7 + 1e-5 * run["rmse"].get<double>())
             << spec;
-        EXPECT_NEAR(std::stod(f[7]), run["ssim"].get<double>(), 5e-5) << spec;
+        EXPECT_NEAR(std::stod(f[6]), run["display_rmse"].get<double>(),
+                    5e-7 + 1e-5 * run["display_rmse"].get<double>())
+            << spec;
+        EXPECT_NEAR(std::stod(f[8]), run["ssim"].get<double>(), 5e-5) << spec;
         EXPECT_EQ(f[4], std::to_string(run["rays"].get<std::uint64_t>())) << spec;
         if (run["psnr"].is_null()) {
-            EXPECT_EQ(f[6], "inf") << spec;
+            EXPECT_EQ(f[7], "inf") << spec;
         } else {
-            EXPECT_NEAR(std::stod(f[6]), run["psnr"].get<double>(), 0.005) << spec;
+            EXPECT_NEAR(std::stod(f[7]), run["psnr"].get<double>(), 0.005) << spec;
         }
     }
 }
@@ -504,6 +549,7 @@ json check_comparison(const fs::path& out, const fs::path& reference_exr,
 
         const mrt::Image image = mrt::read_image(out / (base + ".exr"));
         EXPECT_DOUBLE_EQ(run["rmse"].get<double>(), mrt::rmse(image, reference));
+        EXPECT_DOUBLE_EQ(run["display_rmse"].get<double>(), mrt::display_rmse(image, reference));
         EXPECT_DOUBLE_EQ(run["ssim"].get<double>(), mrt::ssim(image, reference));
         const double psnr = mrt::psnr(image, reference);
         if (std::isinf(psnr)) {
@@ -519,13 +565,21 @@ json check_comparison(const fs::path& out, const fs::path& reference_exr,
         if (i < csv_rows.size()) {
             const std::string row = csv_rows[i];
             EXPECT_EQ(row.rfind(run["method"].get<std::string>() + ",", 0), 0u) << row;
+            // RFC 4180: a spec with a comma is quoted (and holds no quote itself).
             std::vector<std::string> fields;
             std::string field;
-            std::istringstream fs_row(row);
-            while (std::getline(fs_row, field, ',')) {
-                fields.push_back(field);
+            bool quoted = false;
+            for (const char c : row + ',') {
+                if (c == '"') {
+                    quoted = !quoted;
+                } else if (c == ',' && !quoted) {
+                    fields.push_back(field);
+                    field.clear();
+                } else {
+                    field += c;
+                }
             }
-            if (spec.find(',') == std::string::npos && fields.size() >= 10) {
+            if (fields.size() >= 10 && fields[1] == spec) {
                 EXPECT_EQ(std::stod(fields[2]), run["render_seconds"].get<double>());
                 EXPECT_EQ(std::stod(fields[3]), run["total_seconds"].get<double>());
                 EXPECT_EQ(std::stod(fields[4]), run["wall_seconds"].get<double>());
@@ -537,6 +591,10 @@ json check_comparison(const fs::path& out, const fs::path& reference_exr,
                     EXPECT_EQ(std::stod(fields[8]), run["psnr"].get<double>());
                 }
                 EXPECT_EQ(std::stod(fields[9]), run["ssim"].get<double>());
+                EXPECT_EQ(fields.size(), 15u) << row;
+                if (fields.size() == 15) {
+                    EXPECT_EQ(std::stod(fields[14]), run["display_rmse"].get<double>());
+                }
             } else {
                 ADD_FAILURE() << "unexpected CSV row " << row;
             }
@@ -625,13 +683,23 @@ TEST(MrtCompare, DefaultSetWithRenderedReferenceThenCacheReuseAndInvalidation) {
                           std::max(whitted_seconds, mrt::kMinimumBudgetBaseSeconds)));
     }
     const Args offered = offered_methods();
-    for (const std::string method : {"cone", "cone-classic"}) {
-        const bool is_offered = std::find(offered.begin(), offered.end(), method) != offered.end();
-        // cone-classic runs with a time budget of 64× whitted's: its spec carries it.
-        const auto count = std::count_if(specs.begin(), specs.end(), [&](const std::string& s) {
-            return s == method || s.rfind(method + ":time-budget=", 0) == 0;
+    const auto is_offered = [&](const std::string& method) {
+        return std::find(offered.begin(), offered.end(), method) != offered.end();
+    };
+    const auto count_of = [&](const std::string& method, const std::string& options) {
+        // A spec of the method with these options, with or without a time budget after them.
+        const std::string bare = options.empty() ? method : method + ":" + options;
+        const std::string budget = bare + (options.empty() ? ":" : ",") + "time-budget=";
+        return std::count_if(specs.begin(), specs.end(), [&](const std::string& s) {
+            return s == bare ||
+                   (s.rfind(budget, 0) == 0 && s.find(',', budget.size()) == std::string::npos);
         });
-        EXPECT_EQ(count, is_offered ? 1 : 0) << method;
+    };
+    // cone-classic runs with a time budget of 64× whitted's, its primary rays with 16× cone's
+    // primary rays': their specs carry it.
+    for (const std::string options : {"", "max-depth=0"}) {
+        EXPECT_EQ(count_of("cone", options), is_offered("cone") ? 1 : 0) << options;
+        EXPECT_EQ(count_of("cone-classic", options), is_offered("cone-classic") ? 1 : 0) << options;
     }
     // Every run of this small scene finishes; none is reported stopped.
     for (const json& r : results["runs"]) {
@@ -639,7 +707,59 @@ TEST(MrtCompare, DefaultSetWithRenderedReferenceThenCacheReuseAndInvalidation) {
     }
     check_comparison(out, out / "reference.exr", specs);
     check_table(first.out, results);
-    EXPECT_EQ(count_lines(first.out), static_cast<int>(specs.size()) + 2) << first.out;
+    const json& headline = results["headline"];
+    EXPECT_EQ(count_lines(first.out), static_cast<int>(specs.size() + headline.size()) + 2)
+        << first.out;
+    if (is_offered("cone")) {
+        // Each headline ratio is a quotient of the runs it names (each interpolated or bounded
+        // one says so), and the search left a distributed run at cone's RMSE or bounded it.
+        const auto run_named = [&](const std::string& spec) {
+            const auto it = std::find(specs.begin(), specs.end(), spec);
+            EXPECT_NE(it, specs.end()) << spec;
+            return results["runs"][static_cast<std::size_t>(it - specs.begin())];
+        };
+        const json cone = run_named("cone");
+        const json whitted = run_named("whitted");
+        const json& speed = headline["cone_over_whitted"];
+        EXPECT_DOUBLE_EQ(speed["value"].get<double>(), cone["render_seconds"].get<double>() /
+                                                           whitted["render_seconds"].get<double>());
+        EXPECT_EQ(speed["relation"], "equal");
+        const json& reach = headline["distributed_to_cone_error"];
+        ASSERT_TRUE(reach.is_object()) << headline;
+        EXPECT_EQ(reach["denominator"], "cone");
+        if (reach["how"] == "measured") {
+            const json distributed = run_named(reach["numerator"]);
+            EXPECT_LE(
+                std::abs(std::log(distributed["rmse"].get<double>() / cone["rmse"].get<double>())),
+                std::log(1.05) + 1e-12);
+            EXPECT_DOUBLE_EQ(
+                reach["value"].get<double>(),
+                distributed["render_seconds"].get<double>() / cone["render_seconds"].get<double>());
+        } else {
+            EXPECT_NE(reach["relation"], "equal") << "a bound, or measured: " << reach;
+        }
+        const auto equal_time =
+            std::find(specs.begin(), specs.end(),
+                      "distributed:time-budget=" +
+                          mrt::format_budget_seconds(std::max(cone["render_seconds"].get<double>(),
+                                                              mrt::kMinimumBudgetBaseSeconds)));
+        EXPECT_NE(equal_time, specs.end()) << "distributed at cone's time";
+        // Unless cone is faster than the smallest budget, a run near its time gives the RMSE.
+        if (cone["render_seconds"].get<double>() > 1.1 * mrt::kMinimumBudgetSeconds) {
+            EXPECT_TRUE(headline["distributed_rmse_at_cone_time"].is_object()) << headline;
+        }
+        // No spec runs twice (budgets floored to the same one are measured once).
+        Args sorted = specs;
+        std::sort(sorted.begin(), sorted.end());
+        EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end());
+        if (is_offered("cone-classic")) {
+            const json& primary = headline["classic_over_cone_primary"];
+            EXPECT_EQ(primary["denominator"], "cone:max-depth=0");
+            EXPECT_DOUBLE_EQ(primary["value"].get<double>(),
+                             run_named(primary["numerator"])["render_seconds"].get<double>() /
+                                 run_named("cone:max-depth=0")["render_seconds"].get<double>());
+        }
+    }
 
     // The reference and its record.
     const json record = read_json(out / "reference.json");

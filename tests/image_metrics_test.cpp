@@ -119,6 +119,24 @@ TEST(Rmse, SinglePixelErrorIsDilutedByPixelCount) {
     EXPECT_NEAR(mrt::rmse(a, b), std::sqrt(3.0 / 300.0), 1e-15);
 }
 
+TEST(DisplayRmse, ClampsBothImagesToTheDisplayRangeFirst) {
+    // Within [0, 1] it is the RMSE.
+    const Image ref = sine_pattern(33, 17);
+    const Image img = with_gain(ref, 0.9f, 0.02f);
+    EXPECT_DOUBLE_EQ(mrt::display_rmse(img, ref), mrt::rmse(img, ref));
+    // A highlight of 40 against 10 is white against white on a screen: no error at all; a value
+    // of 3 against 0.5 differs by 0.5, and a negative one by its distance from 0.
+    const Image a(10, 10, Rgb(0.5f, 0.5f, 0.5f));
+    Image b = a;
+    Image c = a;
+    c.set(3, 7, Rgb(40.0f, 40.0f, 40.0f));
+    b.set(3, 7, Rgb(10.0f, 10.0f, 10.0f));
+    EXPECT_EQ(mrt::display_rmse(b, c), 0.0);
+    EXPECT_NEAR(mrt::rmse(b, c), std::sqrt(3.0 * 900.0 / 300.0), 1e-12);
+    b.set(3, 7, Rgb(3.0f, 0.5f, -0.25f));
+    EXPECT_NEAR(mrt::display_rmse(b, a), std::sqrt((0.25 + 0.25) / 300.0), 1e-15);
+}
+
 TEST(Psnr, ConstantOffsetGivesMinusTwentyLogOffset) {
     const Image a(16, 16, Rgb(0.25f, 0.25f, 0.25f));
     const Image b(16, 16, Rgb(0.375f, 0.375f, 0.375f));

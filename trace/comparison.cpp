@@ -6,6 +6,7 @@
 #include "common/montage.h"
 #include "trace/child_process.h"
 #include "trace/comparison_report.h"
+#include "trace/equal_error.h"
 #include "trace/method_spec.h"
 
 #include <fmt/format.h>
@@ -36,8 +37,8 @@ constexpr const char* kReferenceMethod = "distributed";
 // favour the runs that use the same one.
 constexpr const char* kReferenceTextureFilter = "none";
 
-/// One entry of the run list: a spec, or a time-budget run of the default set whose spec is
-/// known once the baseline has run.
+/// One entry of the run list: a spec, or a time-budget run (or an equal-error search) of the
+/// default set whose spec is known once the run it is measured against has run.
 struct PlannedRun {
     std::string spec;
     const DefaultRun* budget = nullptr;
@@ -195,13 +196,17 @@ std::vector<PlannedRun> plan_runs(const ComparisonOptions& options) {
     const auto offered = [&](const std::string& method) {
         return std::find(methods.begin(), methods.end(), method) != methods.end();
     };
-    const bool has_baseline = offered(parse_method_spec(baseline_spec()).method);
     for (const DefaultRun& run : default_runs()) {
         if (!offered(run.method)) {
             continue;
         }
         if (run.budget_factor > 0.0) {
-            if (has_baseline) {
+            // Its budget needs the time of a fixed run planned before it.
+            const bool base_planned =
+                std::any_of(plan.begin(), plan.end(), [&](const PlannedRun& p) {
+                    return p.budget == nullptr && p.spec == run.budget_base();
+                });
+            if (base_planned) {
                 plan.push_back({"", &run});
             }
         } else {
@@ -246,7 +251,11 @@ class ComparisonRun {
         prepare_out_dir(m_options.out_dir);
         remove_previous_runs(m_options.out_dir);
 
-        m_total_renders = static_cast<int>(plan.size());
+        m_total_renders = 0;
+        for (const PlannedRun& planned : plan) {
+            const bool search = planned.budget != nullptr && planned.budget->to_equal_error;
+            m_total_renders += search ? kMaxEqualErrorRenders : 1;
+        }
         prepare_reference(scene);
         m_result.width = m_reference.width();
         m_result.height = m_reference.height();
@@ -255,15 +264,20 @@ class ComparisonRun {
             {error_legend(m_reference.width(), m_reference.height(), m_options.error_scale),
              fmt::format("error 0 to {} (mean |difference|)", m_options.error_scale)});
 
-        std::optional<double> baseline_seconds;
-        for (std::size_t i = 0; i < plan.size(); ++i) {
-            std::string spec = plan[i].spec;
-            if (plan[i].budget != nullptr) {
-                spec = budget_run_spec(*plan[i].budget, baseline_seconds.value_or(0.0));
-            }
-            const RunResult& run = render_run(static_cast<int>(i) + 1, spec, scene);
-            if (spec == baseline_spec() && !baseline_seconds) {
-                baseline_seconds = run.render_seconds;
+        for (const PlannedRun& planned : plan) {
+            if (planned.budget == nullptr) {
+                render_run(planned.spec, scene);
+            } else if (planned.budget->to_equal_error) {
+                search_equal_error(*planned.budget, scene);
+            } else {
+                const RunResult* base = first_run(planned.budget->budget_base());
+                const std::string spec =
+                    budget_run_spec(*planned.budget, base != nullptr ? base->render_seconds : 0.0);
+                // Budgets floored at the minimum can coincide (distributed at 4× a fast
+                // whitted's time and at a fast cone's): that run has been measured already.
+                if (first_run(spec) == nullptr) {
+                    render_run(spec, scene);
+                }
             }
         }
 
@@ -273,6 +287,43 @@ class ComparisonRun {
     }
 
   private:
+    const RunResult* first_run(const std::string& spec) const {
+        const auto it = std::find_if(m_result.runs.begin(), m_result.runs.end(),
+                                     [&](const RunResult& r) { return r.spec == spec; });
+        return it != m_result.runs.end() ? &*it : nullptr;
+    }
+
+    /// Renders `search.method` with time budgets until one reaches the RMSE of the run
+    /// `search.budget_base()` (equal_error.h), starting from the curve of the runs of the same
+    /// kind already made, so that the time to equal error is measured rather than read off a
+    /// line between runs far apart.
+    void search_equal_error(const DefaultRun& search, const fs::path& scene) {
+        const RunResult* base = first_run(search.budget_base());
+        if (base == nullptr) {
+            return;
+        }
+        const auto error_of = [&](const RunResult& run) {
+            return search.measure == ErrorMeasure::DisplayRmse ? run.display_rmse : run.rmse;
+        };
+        const double target = error_of(*base);
+        const double max_budget =
+            search.budget_factor * std::max(base->render_seconds, kMinimumBudgetBaseSeconds);
+        for (int i = 0; i < kMaxEqualErrorRenders; ++i) {
+            std::vector<CurvePoint> curve;
+            for (const RunResult& run : m_result.runs) {
+                if (const auto budget = time_budget_of(run.spec, search)) {
+                    curve.push_back({run.render_seconds, error_of(run), *budget});
+                }
+            }
+            const std::optional<double> budget =
+                next_equal_error_budget(curve, target, kMinimumBudgetSeconds, max_budget);
+            if (!budget) {
+                return;
+            }
+            render_run(spec_with_budget(search, *budget), scene);
+        }
+    }
+
     void progress_line(const std::string& text) {
         if (m_options.progress && !m_options.quiet) {
             m_log << text << std::endl;
@@ -399,8 +450,9 @@ class ComparisonRun {
         write_reference_record(dir / kReferenceRecord, key, info);
     }
 
-    const RunResult& render_run(int index, const std::string& spec_text, const fs::path& scene) {
+    const RunResult& render_run(const std::string& spec_text, const fs::path& scene) {
         const MethodSpec spec = parse_method_spec(spec_text);
+        const int index = static_cast<int>(m_result.runs.size()) + 1;
         const fs::path dir = m_options.out_dir;
         const std::string base = fmt::format("{:02}-{}", index, spec_slug(spec_text));
         RunResult run;
@@ -435,6 +487,7 @@ class ComparisonRun {
         check_size(image, dir / run.exr, m_reference.width(), m_reference.height(),
                    fmt::format("the size of the reference {}", m_result.reference.exr.string()));
         run.rmse = rmse(image, m_reference);
+        run.display_rmse = display_rmse(image, m_reference);
         run.psnr = psnr(image, m_reference);
         run.ssim = ssim(image, m_reference);
         const Image error =

@@ -56,6 +56,7 @@ struct RunResult {
     std::uint64_t rays = 0;                ///< The stats' rays (all kinds).
     std::optional<std::uint64_t> samples;  ///< The stats' samples, when mrt-trace reports it.
     double rmse = 0.0;                     ///< Against the reference, linear RGB.
+    double display_rmse = 0.0;             ///< The same, values clamped to [0, 1] first.
     double psnr = 0.0;                     ///< dB, peak 1; +inf for an identical image.
     double ssim = 0.0;                     ///< Mean SSIM of luminance.
     std::string image;                     ///< NN-SLUG.png, relative to DIR.

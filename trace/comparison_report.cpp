@@ -1,6 +1,7 @@
 #include "trace/comparison_report.h"
 
 #include "common/atomic_file.h"
+#include "trace/headline_ratios.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -25,6 +26,26 @@ json number_or_null(double v) {
 template <typename T>
 json number_or_null(const std::optional<T>& v) {
     return v ? json(*v) : json(nullptr);
+}
+
+/// What a headline ratio measures, for the printed table.
+std::string headline_description(const HeadlineRatio& r) {
+    if (r.key == "cone_over_whitted") {
+        return "cone time / whitted time";
+    }
+    if (r.key == "distributed_to_cone_error") {
+        return "distributed time to cone's RMSE / cone time";
+    }
+    if (r.key == "distributed_to_cone_display_error") {
+        return "distributed time to cone's display RMSE / cone time";
+    }
+    if (r.key == "distributed_rmse_at_cone_time") {
+        return "distributed RMSE at cone's time / cone RMSE";
+    }
+    if (r.key == "classic_over_cone_primary") {
+        return "cone-classic time / cone time, primary rays";
+    }
+    return r.key;
 }
 
 const char* origin_name(ReferenceOrigin origin) {
@@ -93,7 +114,18 @@ std::string results_json_text(const Comparison& c) {
                         {"image", r.image},
                         {"error_image", r.error_image},
                         {"stats", r.stats},
-                        {"stopped", r.stopped}});
+                        {"stopped", r.stopped},
+                        {"display_rmse", number_or_null(r.display_rmse)}});
+    }
+    json headline = json::object();
+    for (const HeadlineRatio& r : headline_ratios(c.runs)) {
+        headline[r.key] = {{"value", number_or_null(r.value)},
+                           {"relation", relation_name(r.relation)},
+                           {"numerator", r.numerator},
+                           {"denominator", r.denominator},
+                           {"numerator_value", number_or_null(r.numerator_value)},
+                           {"denominator_value", number_or_null(r.denominator_value)},
+                           {"how", r.how}};
     }
     const ReferenceSummary& ref = c.reference;
     const json j = {{"scene", c.scene},
@@ -109,21 +141,23 @@ std::string results_json_text(const Comparison& c) {
                       {"image", ref.image},
                       {"exr", reference_exr_name(ref)},
                       {"origin", origin_name(ref.origin)}}},
-                    {"runs", runs}};
+                    {"runs", runs},
+                    {"headline", headline}};
     return j.dump(2) + "\n";
 }
 
 std::string results_csv_text(const Comparison& c) {
     std::string csv =
         "method,spec,render_seconds,total_seconds,wall_seconds,rays,samples,rmse,psnr,ssim,"
-        "image,error_image,stats,stopped\n";
+        "image,error_image,stats,stopped,display_rmse\n";
     for (const RunResult& r : c.runs) {
-        csv += fmt::format(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(r.method), csv_field(r.spec),
-            csv_number(r.render_seconds), csv_number(r.total_seconds), csv_number(r.wall_seconds),
-            r.rays, r.samples ? std::to_string(*r.samples) : std::string(), csv_number(r.rmse),
-            csv_number(r.psnr), csv_number(r.ssim), csv_field(r.image), csv_field(r.error_image),
-            csv_field(r.stats), r.stopped ? "true" : "false");
+        csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(r.method),
+                           csv_field(r.spec), csv_number(r.render_seconds),
+                           csv_number(r.total_seconds), csv_number(r.wall_seconds), r.rays,
+                           r.samples ? std::to_string(*r.samples) : std::string(),
+                           csv_number(r.rmse), csv_number(r.psnr), csv_number(r.ssim),
+                           csv_field(r.image), csv_field(r.error_image), csv_field(r.stats),
+                           r.stopped ? "true" : "false", csv_number(r.display_rmse));
     }
     return csv;
 }
@@ -145,16 +179,24 @@ void print_results_table(std::ostream& os, const Comparison& c) {
     for (const RunResult& r : c.runs) {
         spec_width = std::max(spec_width, r.spec.size());
     }
-    os << fmt::format("{:>3}  {:<{}}  {:>10}  {:>10}  {:>14}  {:>10}  {:>7}  {:>7}\n", "#", "spec",
-                      spec_width, "render s", "total s", "rays", "RMSE", "PSNR", "SSIM");
+    os << fmt::format("{:>3}  {:<{}}  {:>10}  {:>10}  {:>14}  {:>10}  {:>10}  {:>7}  {:>7}\n", "#",
+                      "spec", spec_width, "render s", "total s", "rays", "RMSE", "disp.RMSE",
+                      "PSNR", "SSIM");
     for (std::size_t i = 0; i < c.runs.size(); ++i) {
         const RunResult& r = c.runs[i];
         os << fmt::format(
-            "{:>3}  {:<{}}  {:>10.3f}  {:>10.3f}  {:>14}  {:>10.6f}  {:>7}  {:>7.4f}{}\n", i + 1,
-            r.spec, spec_width, r.render_seconds, r.total_seconds, r.rays, r.rmse,
-            format_psnr(r.psnr), r.ssim, r.stopped ? "  stopped: time budget spent" : "");
+            "{:>3}  {:<{}}  {:>10.3f}  {:>10.3f}  {:>14}  {:>10.6f}  {:>10.6f}  {:>7}  "
+            "{:>7.4f}{}\n",
+            i + 1, r.spec, spec_width, r.render_seconds, r.total_seconds, r.rays, r.rmse,
+            r.display_rmse, format_psnr(r.psnr), r.ssim,
+            r.stopped ? "  stopped: time budget spent" : "");
     }
     os << reference_line(c) << '\n';
+    for (const HeadlineRatio& r : headline_ratios(c.runs)) {
+        const std::string numerator = r.numerator.empty() ? "" : " (" + r.numerator + ")";
+        os << fmt::format("{}: {}{:.3g}{}, {}\n", headline_description(r),
+                          relation_prefix(r.relation), r.value, numerator, r.how);
+    }
 }
 
 std::string reference_line(const Comparison& c) {

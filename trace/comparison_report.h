@@ -6,7 +6,12 @@
 //   {"scene", "width", "height", "filter", "seed", "error_scale",
 //    "reference": {"spp", "seconds", "std_error", "image", "exr", "origin"},
 //    "runs": [{"method", "spec", "render_seconds", "total_seconds", "wall_seconds", "rays",
-//              "samples", "rmse", "psnr", "ssim", "image", "error_image", "stats"}]}
+//              "samples", "rmse", "psnr", "ssim", "image", "error_image", "stats", "stopped",
+//              "display_rmse"}],
+//    "headline": {KEY: {"value", "relation", "numerator", "denominator", "numerator_value",
+//                       "denominator_value", "how"}}}
+// (the headline ratios the runs allow, headline_ratios.h; "relation" is "equal", "at most" or
+// "at least").
 // Unknown values (an infinite PSNR, a reference's unknown spp) are null. results.csv has a
 // header and one row per run with the scalar fields of "runs" in the same order; there an
 // infinite PSNR is "inf" and an unknown value an empty field.
@@ -28,8 +33,8 @@ std::string results_csv_text(const Comparison& comparison);
 /// Writes DIR/results.json and DIR/results.csv atomically. Throws mrt::Error.
 void write_results(const Comparison& comparison, const std::filesystem::path& dir);
 
-/// The aligned table of runs (#, spec, render s, total s, rays, RMSE, PSNR, SSIM) followed by
-/// the reference line.
+/// The aligned table of runs (#, spec, render s, total s, rays, RMSE, display RMSE, PSNR, SSIM)
+/// followed by the reference line and one line per headline ratio.
 void print_results_table(std::ostream& os, const Comparison& comparison);
 
 /// "reference: 1024 spp, 12.3 s, std error 0.0012 (rendered, reference.exr)".

@@ -11,6 +11,8 @@
 // The table of methods mrt-compare knows, and the runs it makes when no spec is given, is
 // default_runs() in method_spec.cpp: the one place to add a tracer.
 
+#include "trace/equal_error.h"
+
 #include <iosfwd>
 #include <optional>
 #include <string>
@@ -56,9 +58,24 @@ struct DefaultRun {
     std::string method;   ///< Tracer name, as mrt-trace's --method takes it.
     std::string options;  ///< "key=value,..." after the ':' (empty: none).
     /// 0: a fixed run. > 0: a time-budget run whose budget is this factor times the render
-    /// time of the baseline run (baseline_spec()), so it is only known once that has run.
+    /// time of the run `budget_of`, so it is only known once that has run; with
+    /// `to_equal_error`, the largest budget the search may give.
     double budget_factor = 0.0;
+    /// The spec whose render time scales the budget; empty: baseline_spec() ("whitted").
+    std::string budget_of{};
+    /// A search rather than one run: time budgets rendered until one reaches the error
+    /// (`measure`) of `budget_of`'s run within kEqualErrorTolerance (equal_error.h), at most
+    /// kMaxEqualErrorRenders of them.
+    bool to_equal_error = false;
+    /// The error the search equals.
+    ErrorMeasure measure = ErrorMeasure::Rmse;
+
+    /// budget_of, or baseline_spec() when it is empty.
+    const std::string& budget_base() const;
 };
+
+/// The most renders one equal-error search makes.
+inline constexpr int kMaxEqualErrorRenders = 4;
 
 /// Every run of the default comparison, in order, for every method mrt-compare knows.
 const std::vector<DefaultRun>& default_runs();
@@ -77,6 +94,16 @@ inline constexpr double kMinimumBudgetBaseSeconds = 0.0125;
 /// max(baseline, kMinimumBudgetBaseSeconds), rounded to 3 significant digits and at least
 /// 0.05 s ("distributed:time-budget=0.246").
 std::string budget_run_spec(const DefaultRun& run, double baseline_seconds);
+
+/// The spec of `run` with a budget of `seconds` (rounded as format_budget_seconds does).
+std::string spec_with_budget(const DefaultRun& run, double seconds);
+
+/// The time budget of `spec_text` when it is `run`'s method and options with a time budget
+/// added last (as spec_with_budget writes it), else empty.
+std::optional<double> time_budget_of(const std::string& spec_text, const DefaultRun& run);
+
+/// The smallest budget a run is given (format_budget_seconds' floor).
+inline constexpr double kMinimumBudgetSeconds = 0.05;
 
 /// The budget in seconds, formatted as budget_run_spec writes it ("0.246", "12.3", "0.05").
 std::string format_budget_seconds(double seconds);

@@ -28,8 +28,10 @@ constexpr const char* kMethodHelp =
     "alone a flag (whitted, whitted:spp=4, distributed:spp-max=16, "
     "distributed:time-budget=2). Repeatable, run in order. Default: whitted, whitted:spp=4, "
     "distributed:spp-max=4/16/64, distributed with a time budget of 4x, 16x and 64x whitted's "
-    "render time, cone, and cone-classic stopped after 64x whitted's time (those mrt-trace "
-    "offers)";
+    "render time, cone, cone-classic stopped after 64x whitted's time; for the headline ratios "
+    "cone:max-depth=0 and cone-classic:max-depth=0 (stopped after 16x that), distributed at "
+    "cone's time, and distributed budgets searched until one reaches cone's RMSE (those "
+    "mrt-trace offers)";
 
 }  // namespace
 
