@@ -117,8 +117,13 @@ std::optional<double> next_equal_error_budget(std::span<const CurvePoint> curve,
     const std::vector<CurvePoint> points = sorted_usable(curve);
     double budget = known->seconds;
     if (known->kind == TimeToErrorKind::AtMost) {
-        if (points.front().seconds <= min_budget * 1.02) {
-            return std::nullopt;  // already as fast as a budget may be
+        const CurvePoint& fastest = points.front();
+        if (fastest.seconds <= min_budget * 1.02 ||
+            (fastest.budget > 0.0 && fastest.seconds > fastest.budget * 1.1)) {
+            // Already as fast as a budget may be, or as fast as the tracer can be: its first
+            // pass took longer than the budget (beyond the last tile's overrun), and a smaller
+            // one would take as long again.
+            return std::nullopt;
         }
         const double slope =
             points.size() > 1 ? slope_between(points[0], points[1]) : kSquareRootLaw;

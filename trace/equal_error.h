@@ -54,7 +54,8 @@ std::optional<TimeToError> rmse_at_time(std::span<const CurvePoint> curve, doubl
 /// The time budget to render next so that the curve reaches `target_rmse` within the
 /// tolerance, kept within [min_budget, max_budget]; empty once no render is needed: a run is
 /// within the tolerance, or the curve is already bounded by a run at the budget limit the
-/// target lies beyond, or the chosen budget is within 2 % of a run's time or budget already
+/// target lies beyond (or by a fastest run that overran its budget: the tracer's least time),
+/// or the chosen budget is within 2 % of a run's time or budget already
 /// measured (noise would make another render there no wiser; a render whose first pass takes
 /// longer than its budget would only repeat itself).
 std::optional<double> next_equal_error_budget(std::span<const CurvePoint> curve, double target_rmse,
