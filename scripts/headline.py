@@ -11,6 +11,9 @@ import json
 import os
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from plot_error_time import fmt3  # noqa: E402
+
 # key: (what it measures, the paper's figure, where the paper says it)
 RATIOS = {
     "cone_over_whitted": (
@@ -34,16 +37,6 @@ RATIOS = {
 }
 
 PREFIX = {"equal": "", "at most": "≤ ", "at least": "≥ "}
-
-
-def fmt3(x):
-    if x is None:
-        return "—"
-    if x == 0:
-        return "0"
-    if abs(x) >= 100:
-        return f"{x:.0f}"
-    return f"{x:.3g}"
 
 
 def value_text(ratio):
