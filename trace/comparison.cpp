@@ -7,6 +7,7 @@
 #include "trace/child_process.h"
 #include "trace/comparison_report.h"
 #include "trace/equal_error.h"
+#include "trace/headline_ratios.h"
 #include "trace/method_spec.h"
 
 #include <fmt/format.h>
@@ -302,21 +303,13 @@ class ComparisonRun {
         if (base == nullptr) {
             return;
         }
-        const auto error_of = [&](const RunResult& run) {
-            return search.measure == ErrorMeasure::DisplayRmse ? run.display_rmse : run.rmse;
-        };
-        const double target = error_of(*base);
+        const double target = error_of(*base, search.measure);
         const double max_budget =
             search.budget_factor * std::max(base->render_seconds, kMinimumBudgetBaseSeconds);
         for (int i = 0; i < kMaxEqualErrorRenders; ++i) {
-            std::vector<CurvePoint> curve;
-            for (const RunResult& run : m_result.runs) {
-                if (const auto budget = time_budget_of(run.spec, search)) {
-                    curve.push_back({run.render_seconds, error_of(run), *budget});
-                }
-            }
+            const BudgetCurve curve = budget_curve(m_result.runs, search, search.measure);
             const std::optional<double> budget =
-                next_equal_error_budget(curve, target, kMinimumBudgetSeconds, max_budget);
+                next_equal_error_budget(curve.points, target, kMinimumBudgetSeconds, max_budget);
             if (!budget) {
                 return;
             }

@@ -1,8 +1,5 @@
 #include "trace/headline_ratios.h"
 
-#include "trace/equal_error.h"
-#include "trace/method_spec.h"
-
 #include <algorithm>
 
 namespace mrt {
@@ -27,35 +24,6 @@ std::optional<std::string> option_value(const MethodSpec& spec, const std::strin
 
 bool is_primary_only(const MethodSpec& spec) {
     return option_value(spec, "max-depth") == "0";
-}
-
-/// The runs of distributed given nothing but a time budget: one curve of error against time.
-struct BudgetCurve {
-    std::vector<CurvePoint> points;
-    std::vector<const RunResult*> runs;  ///< The run of each point.
-
-    const RunResult* run_at(double seconds, double rmse) const {
-        for (std::size_t i = 0; i < points.size(); ++i) {
-            if (points[i].seconds == seconds && points[i].rmse == rmse) {
-                return runs[i];
-            }
-        }
-        return nullptr;
-    }
-};
-
-BudgetCurve distributed_budget_curve(const std::vector<RunResult>& runs, ErrorMeasure measure) {
-    DefaultRun distributed;
-    distributed.method = "distributed";
-    BudgetCurve curve;
-    for (const RunResult& run : runs) {
-        if (const auto budget = time_budget_of(run.spec, distributed)) {
-            const double error = measure == ErrorMeasure::DisplayRmse ? run.display_rmse : run.rmse;
-            curve.points.push_back({run.render_seconds, error, *budget});
-            curve.runs.push_back(&run);
-        }
-    }
-    return curve;
 }
 
 /// The time the curve needs to reach `target`, over `cone`'s time.
@@ -121,6 +89,31 @@ HeadlineRatio time_ratio(const char* key, const RunResult& numerator,
 
 }  // namespace
 
+double error_of(const RunResult& run, ErrorMeasure measure) {
+    return measure == ErrorMeasure::DisplayRmse ? run.display_rmse : run.rmse;
+}
+
+const RunResult* BudgetCurve::run_at(double seconds, double error) const {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        if (points[i].seconds == seconds && points[i].rmse == error) {
+            return runs[i];
+        }
+    }
+    return nullptr;
+}
+
+BudgetCurve budget_curve(const std::vector<RunResult>& runs, const DefaultRun& kind,
+                         ErrorMeasure measure) {
+    BudgetCurve curve;
+    for (const RunResult& run : runs) {
+        if (const auto budget = time_budget_of(run.spec, kind)) {
+            curve.points.push_back({run.render_seconds, error_of(run, measure), *budget});
+            curve.runs.push_back(&run);
+        }
+    }
+    return curve;
+}
+
 std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs) {
     std::vector<HeadlineRatio> ratios;
     const RunResult* whitted = find_run(
@@ -138,8 +131,10 @@ std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs) {
     if (cone != nullptr && whitted != nullptr && whitted->render_seconds > 0.0) {
         ratios.push_back(time_ratio("cone_over_whitted", *cone, *whitted));
     }
-    const BudgetCurve curve = distributed_budget_curve(runs, ErrorMeasure::Rmse);
-    const BudgetCurve display_curve = distributed_budget_curve(runs, ErrorMeasure::DisplayRmse);
+    DefaultRun distributed;
+    distributed.method = "distributed";
+    const BudgetCurve curve = budget_curve(runs, distributed, ErrorMeasure::Rmse);
+    const BudgetCurve display_curve = budget_curve(runs, distributed, ErrorMeasure::DisplayRmse);
     if (cone != nullptr && cone->render_seconds > 0.0) {
         if (auto r = reach_ratio("distributed_to_cone_error", curve, cone->rmse, *cone)) {
             ratios.push_back(*r);

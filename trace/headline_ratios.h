@@ -13,6 +13,8 @@
 // A ratio is missing when its runs are not in the comparison.
 
 #include "trace/comparison.h"
+#include "trace/equal_error.h"
+#include "trace/method_spec.h"
 
 #include <optional>
 #include <string>
@@ -35,6 +37,21 @@ struct HeadlineRatio {
     /// at its time guard", "even its fastest run is more accurate", "no run reaches it".
     std::string how;
 };
+
+/// A run's error in `measure`.
+double error_of(const RunResult& run, ErrorMeasure measure);
+
+/// The runs of `kind` (its method and options) that differ only in their time budget: one curve
+/// of `measure` against render time, as the headline reads it and mrt-compare's search extends it.
+struct BudgetCurve {
+    std::vector<CurvePoint> points;
+    std::vector<const RunResult*> runs;  ///< The run of each point.
+
+    /// The run whose point this is (a time_to_error or rmse_at_time answer that names one).
+    const RunResult* run_at(double seconds, double error) const;
+};
+BudgetCurve budget_curve(const std::vector<RunResult>& runs, const DefaultRun& kind,
+                         ErrorMeasure measure);
 
 /// The ratios the runs allow, in the order listed above.
 std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs);
