@@ -735,8 +735,30 @@ TEST(MrtCompare, DefaultSetWithRenderedReferenceThenCacheReuseAndInvalidation) {
             EXPECT_DOUBLE_EQ(
                 reach["value"].get<double>(),
                 distributed["render_seconds"].get<double>() / cone["render_seconds"].get<double>());
+        } else if (reach["how"] == "interpolated between two runs") {
+            // Four renders did not land within 5 %: the time lies between two distributed
+            // time-budget runs, one either side of cone's RMSE.
+            EXPECT_EQ(reach["relation"], "equal");
+            EXPECT_EQ(reach["numerator"], "");
+            const double seconds = reach["numerator_value"].get<double>();
+            bool below = false;
+            bool above = false;
+            for (const json& r : results["runs"]) {
+                const std::string spec = r["spec"];
+                if (spec.rfind("distributed:time-budget=", 0) != 0) {
+                    continue;
+                }
+                const double t = r["render_seconds"].get<double>();
+                const double e = r["rmse"].get<double>();
+                below = below || (t <= seconds && e > cone["rmse"].get<double>());
+                above = above || (t >= seconds && e <= cone["rmse"].get<double>());
+            }
+            EXPECT_TRUE(below && above) << reach;
         } else {
-            EXPECT_NE(reach["relation"], "equal") << "a bound, or measured: " << reach;
+            // A bound: no run reaches cone's RMSE, or the fastest is already better.
+            EXPECT_NE(reach["relation"], "equal") << reach;
+            EXPECT_TRUE(specs.end() != std::find(specs.begin(), specs.end(), reach["numerator"]))
+                << reach;
         }
         const auto equal_time =
             std::find(specs.begin(), specs.end(),
