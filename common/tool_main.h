@@ -3,6 +3,7 @@
 // "TOOL: message" on stderr; exit 0 on success or --help, 2 for a bad command line, 1 for any
 // error the work throws. Header-only: included by the tools, which link CLI11.
 
+#include "common/budgets.h"
 #include "common/error.h"
 
 #include <CLI/CLI.hpp>
@@ -10,6 +11,8 @@
 #include <exception>
 #include <iostream>
 #include <new>
+#include <string>
+#include <vector>
 
 namespace mrt {
 
@@ -38,6 +41,26 @@ int run_tool(CLI::App& app, int argc, char** argv, Validate&& validate, Work&& w
         std::cerr << tool << ": internal error: " << e.what() << '\n';
     }
     return 1;
+}
+
+/// Adds the repeatable `--budget NAME=VALUE` option, which raises (or lowers) one of `budgets`'
+/// limits; a bad assignment is a command-line error.
+inline void add_budget_option(CLI::App& app, Budgets& budgets) {
+    app.add_option_function<std::vector<std::string>>(
+           "--budget",
+           [&budgets](const std::vector<std::string>& assignments) {
+               for (const std::string& assignment : assignments) {
+                   try {
+                       set_budget(budgets, assignment);
+                   } catch (const Error& e) {
+                       throw CLI::ValidationError(e.what());
+                   }
+               }
+           },
+           budget_help())
+        ->type_name("NAME=VALUE")
+        ->take_all()
+        ->allow_extra_args(false);
 }
 
 template <typename Work>
