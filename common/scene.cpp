@@ -1,6 +1,7 @@
 #include "common/scene.h"
 
 #include "common/error.h"
+#include "common/invertibility.h"
 
 #include <fmt/format.h>
 
@@ -89,7 +90,7 @@ class Flattener {
         if (base + mesh.positions.size() > std::numeric_limits<std::uint32_t>::max()) {
             throw Error(m_scene.file, "", "too many vertices to flatten into one mesh");
         }
-        const Mat3f normal_matrix = to_world.linear().inverse().transpose();
+        const Mat3f normal_matrix = inverse_in_double(Mat3f(to_world.linear())).transpose();
         const bool has_normals = mesh.normals.size() == mesh.positions.size();
         for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
             m_out.positions.push_back(to_world * mesh.positions[i]);
@@ -101,7 +102,7 @@ class Flattener {
         }
         // A mirroring transform turns counter-clockwise triangles clockwise; swapping two
         // corners keeps the winding consistent with the transformed normals.
-        const bool mirrored = to_world.linear().determinant() < 0.0f;
+        const bool mirrored = to_world.linear().cast<double>().determinant() < 0.0;
         const auto offset = static_cast<std::uint32_t>(base);
         for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
             const auto& tri = mesh.triangles[t];

@@ -1,6 +1,7 @@
 #include "trace/scene_bvh.h"
 
 #include "common/error.h"
+#include "common/invertibility.h"
 #include "trace/bvh_build.h"
 #include "trace/triangle_intersect.h"
 
@@ -109,7 +110,7 @@ void SceneBvh::Impl::build_group(const Scene& scene, std::uint32_t g) {
         instance.to_parent = child.transform;
         instance.identity = child.transform.matrix() == Mat4f::Identity();
         if (!instance.identity) {
-            instance.to_child = child.transform.inverse(Eigen::Affine);
+            instance.to_child = inverse_in_double(child.transform);
             if (!instance.to_child.matrix().allFinite()) {
                 continue;  // Singular (flattened to zero volume): no ray can hit it sensibly.
             }

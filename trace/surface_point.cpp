@@ -1,5 +1,7 @@
 #include "trace/surface_point.h"
 
+#include "common/invertibility.h"
+
 namespace mrt {
 
 SurfacePoint make_surface_point(const Scene& scene, const SceneHit& hit, const Vec3f& direction) {
@@ -14,9 +16,9 @@ SurfacePoint make_surface_point(const Scene& scene, const SceneHit& hit, const V
     SurfacePoint sp;
     sp.material = mesh.materials[hit.triangle];
     const auto linear = hit.object_to_world.linear();
-    // Normals transform by the inverse transpose; the cofactor matrix is that up to a positive
-    // factor for orientation-preserving transforms and flips correctly for mirroring ones.
-    sp.normal_matrix = linear.inverse().transpose();
+    // Normals transform by the inverse transpose, taken in double: in float the determinant of
+    // an accepted scale of 1e13 overflows, and of 1e-30 underflows.
+    sp.normal_matrix = inverse_in_double(Mat3f(linear)).transpose();
     const Mat3f& normal_matrix = sp.normal_matrix;
     sp.position = hit.object_to_world * object_position;
     const float vertex_magnitude =
