@@ -3,6 +3,7 @@
 #include "common/data_path.h"
 #include "common/error.h"
 #include "common/hierarchy_scene.h"
+#include "common/invertibility.h"
 #include "common/mesh_io.h"
 #include "common/procedural.h"
 #include "common/scene_json.h"
@@ -41,8 +42,6 @@ constexpr double kMinPixelAspect = 0.01;
 constexpr double kMaxPixelAspect = 100.0;
 // Below this sine of the angle between up and the view direction the camera basis is undefined.
 constexpr double kMinUpViewSine = 1e-6;
-// Relative to the cube of the largest coefficient, a smaller 3×3 determinant counts as singular.
-constexpr double kMinRelativeDeterminant = 1e-12;
 
 // Composed in double so that rotations by right angles come out exact in single precision.
 using Affine3d = Eigen::Transform<double, 3, Eigen::Affine, Eigen::DontAlign>;
@@ -132,20 +131,24 @@ Eigen::Vector3d read_scale(const JsonValue& value) {
 }
 
 Affine3d read_matrix(const JsonValue& value) {
-    const std::vector<float> m = value.numbers(16, "an array of 16 numbers (4x4, row-major)");
+    constexpr std::string_view kExpected = "an array of 16 numbers (4x4, row-major)";
+    if (!value.json().is_array() || value.json().size() != 16) {
+        value.fail_expected(kExpected);
+    }
+    const auto elements = value.elements();
     Eigen::Matrix4d matrix;
     for (int row = 0; row < 4; ++row) {
         for (int column = 0; column < 4; ++column) {
-            matrix(row, column) = m[static_cast<std::size_t>(4 * row + column)];
+            matrix(row, column) =
+                elements[static_cast<std::size_t>(4 * row + column)].double_number();
         }
     }
     if (matrix.row(3) != Eigen::RowVector4d(0.0, 0.0, 0.0, 1.0)) {
         value.fail_expected("a last row of 0, 0, 0, 1 (an affine matrix)");
     }
-    const Eigen::Matrix3d linear = matrix.topLeftCorner<3, 3>();
-    const double magnitude = linear.cwiseAbs().maxCoeff();
-    if (!(std::abs(linear.determinant()) >
-          kMinRelativeDeterminant * magnitude * magnitude * magnitude)) {
+    // Scale-free: a matrix of huge or tiny (even non-uniform) scale is invertible.
+    if (!(scaling_invariant_condition(matrix.topLeftCorner<3, 3>()) <=
+          kMaxScalingInvariantCondition)) {
         value.fail_expected("an invertible matrix");
     }
     Affine3d transform;
@@ -189,12 +192,18 @@ Affine3f read_transform(const JsonValue& value) {
     } else {
         value.fail_expected("a transform object or an array of them");
     }
-    const Affine3f result = transform.cast<float>();
-    const float determinant = result.linear().determinant();
-    if (!all_finite(result.matrix()) || !std::isfinite(determinant) || determinant == 0.0f) {
+    // Decided scale-free (common/invertibility.h): uniform scales of 1e13 or 1e-30 are
+    // accepted, singular or unrepresentable linear parts refused.
+    if (!invertible_in_single_precision(transform.linear())) {
         value.fail(
             "the composed transform is not invertible in single precision (expected an "
             "invertible transform)");
+    }
+    const Affine3f result = transform.cast<float>();
+    if (!all_finite(result.translation())) {
+        value.fail(
+            "the composed transform's translation is beyond single precision (expected a "
+            "translation within 3.4e38)");
     }
     return result;
 }

@@ -1,6 +1,7 @@
 #include "common/scene_loader.h"
 #include "common/data_path.h"
 #include "common/error.h"
+#include "common/invertibility.h"
 #include "common/procedural.h"
 #include "common/scene.h"
 #include "common/scene_json.h"
@@ -12,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <random>
@@ -1334,6 +1336,113 @@ TEST(Scene, PrintsMaterialWithItsName) {
     EXPECT_EQ(out.str().rfind("Material{name=\"copper\", diffuse=(0.8, 0.8, 0.8)", 0), 0u)
         << out.str();
     EXPECT_NE(out.str().find("ior=1.25"), std::string::npos) << out.str();
+}
+
+// ---- Invertibility whatever the scale (common/invertibility.h) ------------------------------
+
+/// The linear part of the world's first object's transform, as `transform` composes it.
+Mat3f linear_of(const std::string& transform) {
+    return parse(SceneParts()
+                     .objects(R"([{"shape": "quad", "material": "red", "transform": )" + transform +
+                              "}]")
+                     .json())
+        .groups[0]
+        .children.at(0)
+        .transform.linear();
+}
+
+std::string transform_error(const std::string& transform) {
+    return error_of(
+        SceneParts()
+            .objects(R"([{"shape": "quad", "material": "red", "transform": )" + transform + "}]")
+            .json());
+}
+
+const std::string kNotInvertible =
+    "scene.json: /objects/0/transform: the composed transform is not invertible in single "
+    "precision (expected an invertible transform)";
+
+TEST(SceneLoader, AcceptsExactScalesWhoseDeterminantLeavesTheFloatRange) {
+    // det = 1e39 overflows a float and 1e-90 underflows it; the inverses 1e-13 and 1e30 are
+    // ordinary floats.
+    EXPECT_EQ(linear_of(R"({"scale": 1e13})"), Mat3f(Vec3f::Constant(1e13f).asDiagonal()));
+    EXPECT_EQ(linear_of(R"({"scale": 1e-30})"), Mat3f(Vec3f::Constant(1e-30f).asDiagonal()));
+    EXPECT_EQ(linear_of(R"({"matrix": [1e13, 0, 0, 0, 0, 1e13, 0, 0, 0, 0, 1e13, 0, 0, 0, 0, 1]})"),
+              Mat3f(Vec3f::Constant(1e13f).asDiagonal()));
+    // Composed in double: 1e30 · 1e-30 is 1 (up to the double rounding of the decimals).
+    expect_near(Vec3f(linear_of(R"([{"scale": 1e30}, {"scale": 1e-30}])").diagonal()), {1, 1, 1});
+    EXPECT_EQ(linear_of(R"([{"scale": [1e30, 1, 1]}, {"scale": [1, 1e-30, 1]}])"),
+              Mat3f(Vec3f(1e30f, 1e-30f, 1.0f).asDiagonal()));
+    EXPECT_EQ(linear_of(R"({"scale": [1e30, 1, 1]})"), Mat3f(Vec3f(1e30f, 1, 1).asDiagonal()));
+}
+
+TEST(SceneLoader, AcceptsRotatedNonUniformScalesOfAnyRatio) {
+    // Scale then rotate (R·S) and rotate then scale (S·R): both have columns, or rows, of wildly
+    // different lengths, which a determinant relative to the largest coefficient calls singular.
+    const std::string rotate = R"({"rotate": {"axis": [1, 2, 3], "degrees": 37}})";
+    const std::string scale = R"({"scale": [1e30, 1, 1e-20]})";
+    for (const std::string& transform :
+         {"[" + scale + ", " + rotate + "]", "[" + rotate + ", " + scale + "]"}) {
+        SCOPED_TRACE(transform);
+        const Mat3f linear = linear_of(transform);
+        // The inverse, in double, undoes it: L⁻¹·L = I to rounding, entry by entry relative to
+        // the magnitudes summed (|L⁻¹|·|L|), as entries of 1e30 times 1e-30 must be.
+        const Eigen::Matrix3d l = linear.cast<double>();
+        const Eigen::Matrix3d inverse = l.inverse();
+        const Eigen::Matrix3d residual = (inverse * l - Eigen::Matrix3d::Identity()).cwiseAbs();
+        EXPECT_TRUE((residual.array() <= 1e-12 * (inverse.cwiseAbs() * l.cwiseAbs()).array()).all())
+            << l;
+    }
+}
+
+TEST(SceneLoader, RefusesSingularOrUnrepresentableTransforms) {
+    // Rank-deficient: the third row is the sum of the first two.
+    EXPECT_EQ(transform_error(R"({"matrix": [1, 2, 3, 0, 4, 5, 6, 0, 5, 7, 9, 0, 0, 0, 0, 1]})"),
+              "scene.json: /objects/0/transform/matrix: found [1,2,3,0,4,5,6,0,5,7,9,0,0,0,0,1], "
+              "expected an invertible matrix");
+    // Nearly singular: invertible in double, but 1 + 1e-7 rounds to a float neighbour of 1 and
+    // the rounding alone could make it singular.
+    EXPECT_EQ(
+        transform_error(R"({"matrix": [1, 1, 0, 0, 1, 1.0000001, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]})"),
+        "scene.json: /objects/0/transform/matrix: found "
+        "[1,1,0,0,1,1.0000001,0,0,0,0,1,0,0,0,0,1], expected an invertible matrix");
+    // Moderately ill-conditioned is fine.
+    EXPECT_EQ(
+        linear_of(R"({"matrix": [1, 1, 0, 0, 1, 1.001, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]})")(1, 1),
+        1.001f);
+    // Products beyond the float range: 1e-60 is zero, 1e60 infinite; 1e-40 is a float (a
+    // subnormal), but its inverse 1e40 is not.
+    EXPECT_EQ(transform_error(R"([{"scale": 1e-30}, {"scale": [1, 1e-30, 1]}])"), kNotInvertible);
+    EXPECT_EQ(transform_error(R"([{"scale": 1e30}, {"scale": 1e30}])"), kNotInvertible);
+    EXPECT_EQ(transform_error(R"([{"scale": 1e-20}, {"scale": 1e-20}])"), kNotInvertible);
+}
+
+TEST(Invertibility, ConditionIsThatOfTheBestScalingOfRowsAndColumns) {
+    // Scaled permutations: 1, whatever the scales.
+    Eigen::Matrix3d permutation;
+    permutation << 0, 1e30, 0, 0, 0, -1e-30, 3, 0, 0;
+    EXPECT_NEAR(scaling_invariant_condition(permutation), 1.0, 1e-4);
+    // A rotation by 45° about z: |R⁻¹|·|R| has the block [[1, 1], [1, 1]], spectral radius 2.
+    const Eigen::Matrix3d rotation =
+        Eigen::AngleAxisd(std::numbers::pi / 4.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    EXPECT_NEAR(scaling_invariant_condition(rotation), 2.0, 1e-12);
+    // Unchanged by scaling rows and columns.
+    const Eigen::Matrix3d scaled = Eigen::Vector3d(1e20, 1, 1e-15).asDiagonal() * rotation *
+                                   Eigen::Vector3d(3e-25, 7, 1e10).asDiagonal();
+    EXPECT_NEAR(scaling_invariant_condition(scaled), 2.0, 1e-9);
+    EXPECT_TRUE(invertible_in_single_precision(scaled));
+    // [[1, 1], [1, 1 + e]]: |A⁻¹|·|A| = (1/e)·[[2 + e, 2 + 2e], [2, 2 + e]] for the block,
+    // spectral radius (2 + e + 2·sqrt(1 + e))/e ≈ 4/e.
+    const double e = 1e-3;
+    Eigen::Matrix3d near_singular;
+    near_singular << 1, 1, 0, 1, 1 + e, 0, 0, 0, 1;
+    EXPECT_NEAR(scaling_invariant_condition(near_singular), (2 + e + 2 * std::sqrt(1 + e)) / e,
+                1e-6);
+    near_singular(1, 1) = 1 + 1e-9;
+    EXPECT_FALSE(invertible_in_single_precision(near_singular));
+    Eigen::Matrix3d singular;
+    singular << 1, 2, 3, 2, 4, 6, 0, 0, 1;
+    EXPECT_EQ(scaling_invariant_condition(singular), std::numeric_limits<double>::infinity());
 }
 
 }  // namespace
