@@ -99,6 +99,11 @@ struct Scene {
     std::vector<Mesh> meshes;   ///< Unique geometry, each in its own object space.
     std::vector<Group> groups;  ///< groups[root] is the world.
     std::uint32_t root = 0;
+    /// Where this scene's origin is in the coordinates of the file it was written in: world space
+    /// here (camera, lights, the world's transforms) is relative to it. The loader re-bases a
+    /// scene whose eye is far from the file's origin on the eye (common/world_origin.h); zero for
+    /// a scene loaded with the numbers it was written with.
+    Vec3d world_origin{0.0, 0.0, 0.0};
 
     /// Number of triangles after expanding every instance.
     std::uint64_t instanced_triangle_count() const;

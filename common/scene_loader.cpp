@@ -8,6 +8,7 @@
 #include "common/procedural.h"
 #include "common/scene_json.h"
 #include "common/section_file.h"
+#include "common/world_origin.h"
 
 #include <fmt/format.h>
 
@@ -42,9 +43,6 @@ constexpr double kMinPixelAspect = 0.01;
 constexpr double kMaxPixelAspect = 100.0;
 // Below this sine of the angle between up and the view direction the camera basis is undefined.
 constexpr double kMinUpViewSine = 1e-6;
-
-// Composed in double so that rotations by right angles come out exact in single precision.
-using Affine3d = Eigen::Transform<double, 3, Eigen::Affine, Eigen::DontAlign>;
 
 /// A mesh file to load once every other value of the scene has been validated.
 struct PendingMeshFile {
@@ -95,6 +93,16 @@ std::pair<JsonValue, bool> exactly_one_of(const JsonObject& object, std::string_
             fmt::format("missing required key \"{}\" or \"{}\" (exactly one)", first, second));
     }
     return a ? std::pair{*a, true} : std::pair{*b, false};
+}
+
+/// An array of 3 numbers in double precision: positions are re-based before they are rounded
+/// (common/world_origin.h). Refused exactly as JsonValue::vec3 refuses.
+Vec3d read_point(const JsonValue& value) {
+    if (!value.json().is_array() || value.json().size() != 3) {
+        value.fail_expected("an array of 3 numbers");
+    }
+    const auto elements = value.elements();
+    return {elements[0].double_number(), elements[1].double_number(), elements[2].double_number()};
 }
 
 Eigen::Matrix3d read_axis_angle(const JsonValue& value) {
@@ -170,7 +178,7 @@ Affine3d read_transform_step(const JsonValue& value) {
     // Eigen's translate/rotate/scale multiply on the right: the result is T·R·S.
     Affine3d transform = Affine3d::Identity();
     if (const auto translate = step.optional("translate")) {
-        transform.translate(translate->vec3().cast<double>());
+        transform.translate(read_point(*translate));
     }
     if (const auto rotate = step.optional("rotate")) {
         transform.rotate(read_rotation(*rotate));
@@ -181,7 +189,9 @@ Affine3d read_transform_step(const JsonValue& value) {
     return transform;
 }
 
-Affine3f read_transform(const JsonValue& value) {
+/// The composed transform, in double: rotations by right angles come out exact in single
+/// precision, and a world placement far from the origin keeps its digits until it is re-based.
+Affine3d read_transform(const JsonValue& value) {
     Affine3d transform = Affine3d::Identity();
     if (value.json().is_array()) {
         for (const JsonValue& step : value.elements()) {
@@ -192,18 +202,25 @@ Affine3f read_transform(const JsonValue& value) {
     } else {
         value.fail_expected("a transform object or an array of them");
     }
-    // Decided scale-free (common/invertibility.h): uniform scales of 1e13 or 1e-30 are
-    // accepted, singular or unrepresentable linear parts refused.
-    if (!invertible_in_single_precision(transform.linear())) {
-        value.fail(
+    return transform;
+}
+
+/// `composed` moved into the scene's space by `frame` and rounded to float; `where` is the
+/// transform's value (or the object's, when it has none). Invertibility is decided scale-free
+/// (common/invertibility.h): uniform scales of 1e13 or 1e-30 are accepted, singular or
+/// unrepresentable linear parts refused.
+Affine3f single_precision_transform(const JsonValue& where, const Affine3d& composed,
+                                    const WorldFrame& frame) {
+    if (!invertible_in_single_precision(composed.linear())) {
+        where.fail(
             "the composed transform is not invertible in single precision (expected an "
             "invertible transform)");
     }
-    const Affine3f result = transform.cast<float>();
+    const Affine3f result = frame.placement(composed);
     if (!all_finite(result.translation())) {
-        value.fail(
+        where.fail(
             "the composed transform's translation is beyond single precision (expected a "
-            "translation within 3.4e38)");
+            "translation within 3.4e38 of the scene's origin)");
     }
     return result;
 }
@@ -266,9 +283,9 @@ class SceneBuilder {
     Scene build(const Json& document) {
         const JsonValue root(m_file, document, "");
         const JsonObject top(root, {"ambient", "background", "camera", "groups", "lights",
-                                    "materials", "max_depth", "objects"});
+                                    "materials", "max_depth", "objects", "world_origin"});
         m_scene.file = m_file;
-        read_camera(top.required("camera"));
+        read_camera(top.required("camera"), top.optional("world_origin"));
         if (const auto background = top.optional("background")) {
             m_scene.background = background->colour();
         }
@@ -291,13 +308,19 @@ class SceneBuilder {
     }
 
   private:
-    void read_camera(const JsonValue& value) {
+    void read_camera(const JsonValue& value, const std::optional<JsonValue>& world_origin) {
         const JsonObject camera(value, {"aperture_radius", "eye", "focal_distance", "fov",
                                         "look_at", "pixel_aspect", "resolution", "up"});
         Camera& c = m_scene.camera;
-        c.eye = camera.required("eye").vec3();
+        const Vec3d eye_position = read_point(camera.required("eye"));
         const JsonValue look_at = camera.required("look_at");
-        c.look_at = look_at.vec3();
+        const Vec3d look_at_position = read_point(look_at);
+        choose_frame(world_origin, eye_position, look_at_position);
+        c.eye = m_frame.point(eye_position);
+        c.look_at = m_frame.point(look_at_position);
+        if (!all_finite(c.look_at)) {
+            look_at.fail_expected("a point within single-precision range of \"eye\"");
+        }
         const Eigen::Vector3d view = c.look_at.cast<double>() - c.eye.cast<double>();
         if (view.isZero(0.0)) {
             look_at.fail_expected("a point different from \"eye\"");
@@ -339,6 +362,28 @@ class SceneBuilder {
         if (!std::isfinite(c.focal_distance)) {
             look_at.fail_expected("a point within single-precision range of \"eye\"");
         }
+    }
+
+    // A file that says where its origin is keeps its coordinates (a scene record's geometry, in
+    // its hierarchy file, is already relative to that origin); any other is re-based on the eye
+    // when the eye is far from the file's origin (common/world_origin.h).
+    void choose_frame(const std::optional<JsonValue>& world_origin, const Vec3d& eye,
+                      const Vec3d& look_at) {
+        if (world_origin) {
+            m_scene.world_origin = read_point(*world_origin);
+            return;
+        }
+        m_frame = WorldFrame(choose_world_origin(eye, look_at));
+        m_scene.world_origin = m_frame.origin();
+    }
+
+    /// A world position of the file (a light's), in the scene's space.
+    Vec3f world_point(const JsonValue& value) const {
+        const Vec3f point = m_frame.point(read_point(value));
+        if (!all_finite(point)) {
+            value.fail_expected("a point within single-precision range of the camera's \"eye\"");
+        }
+        return point;
     }
 
     void read_materials(const JsonValue& value) {
@@ -421,9 +466,9 @@ class SceneBuilder {
         }
     }
 
-    static PointLight read_point_light(const JsonObject& object) {
+    PointLight read_point_light(const JsonObject& object) const {
         PointLight light;
-        light.position = object.required("position").vec3();
+        light.position = world_point(object.required("position"));
         const auto [value, is_intensity] = exactly_one_of(object, "intensity", "power");
         const Rgb colour = value.colour();
         // An isotropic source spreads its power over 4π steradians.
@@ -431,9 +476,9 @@ class SceneBuilder {
         return light;
     }
 
-    static EllipticalAreaLight read_ellipse_light(const JsonObject& object) {
+    EllipticalAreaLight read_ellipse_light(const JsonObject& object) const {
         EllipticalAreaLight light;
-        light.center = object.required("center").vec3();
+        light.center = world_point(object.required("center"));
         light.semi_axis_u = object.required("semi_axis_u").nonzero_vec3();
         const JsonValue semi_axis_v = object.required("semi_axis_v");
         light.semi_axis_v = semi_axis_v.nonzero_vec3();
@@ -501,8 +546,14 @@ class SceneBuilder {
             instance.index = read_shape(
                 shape->choice({"checkerboard", "mesh", "plant", "quad", "sphere"}), value);
         }
-        if (const auto transform = value.find("transform")) {
-            instance.transform = read_transform(*transform);
+        // The world's own objects are placed relative to the scene's origin; the children of
+        // groups keep their object-local transforms.
+        const auto transform = value.find("transform");
+        if (transform || group == m_scene.root) {
+            const Affine3d composed = transform ? read_transform(*transform) : Affine3d::Identity();
+            instance.transform =
+                single_precision_transform(transform ? *transform : value, composed,
+                                           group == m_scene.root ? m_frame : WorldFrame());
         }
         return instance;
     }
@@ -729,6 +780,7 @@ class SceneBuilder {
     std::filesystem::path m_directory;
     const SceneLoadOptions& m_options;
     Scene m_scene;
+    WorldFrame m_frame;  ///< File world space → the scene's (camera-relative when far).
     std::map<std::string, std::uint32_t> m_material_index;
     std::map<std::string, std::uint32_t> m_group_index;
     std::map<std::pair<std::string, bool>, int> m_texture_index;

@@ -30,7 +30,7 @@ static_assert(sizeof(EllipticalAreaLight) == 52,
               "write the new EllipticalAreaLight field to the scene record");
 static_assert(sizeof(Texture) == 48, "write the new Texture field to the scene record");
 static_assert(sizeof(Material) == 120, "write the new Material field to the scene record");
-static_assert(sizeof(Scene) == 280, "write the new Scene field to the scene record");
+static_assert(sizeof(Scene) == 304, "write the new Scene field to the scene record");
 
 // The loader's conversion of "fov", which the written degrees must undo exactly.
 constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
@@ -68,6 +68,10 @@ class RecordWriter {
         record["max_depth"] = m_scene.max_depth;
         record["materials"] = materials();
         record["lights"] = lights();
+        // Always written: a record's camera and lights, and the geometry of its hierarchy file,
+        // are relative to it, so the loader must keep them as they are (a file without
+        // "world_origin" may be re-based on its eye).
+        record["world_origin"] = world_origin();
         // The one required key of the geometry, empty: a scene file may have no objects.
         record["objects"] = Json::array();
         return record;
@@ -131,6 +135,23 @@ class RecordWriter {
             out["focal_distance"] = number(c.focal_distance, "/camera/focal_distance");
         }
         out["pixel_aspect"] = number(c.pixel_aspect, "/camera/pixel_aspect");
+        return out;
+    }
+
+    Json world_origin() const {
+        const Vec3d& origin = m_scene.world_origin;
+        Json out = Json::array();
+        for (Eigen::Index i = 0; i < 3; ++i) {
+            // Doubles are written with the digits that read back as the same double; the loader
+            // accepts magnitudes up to the largest float.
+            if (!std::isfinite(origin[i]) ||
+                std::abs(origin[i]) > static_cast<double>(std::numeric_limits<float>::max())) {
+                fail(fmt::format("/world_origin/{}", i),
+                     fmt::format("found {}, expected a finite number of magnitude <= 3.4e38",
+                                 origin[i]));
+            }
+            out.push_back(origin[i]);
+        }
         return out;
     }
 

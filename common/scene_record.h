@@ -8,7 +8,9 @@
 // the loader turns back into the same float, the field of view as the degree value whose
 // conversion gives back the stored radians, and a texture's uv transform as its "uv_matrix".
 // Textures are written by their resolved absolute paths, which the loader resolves to
-// themselves; the files must still exist when the record is loaded.
+// themselves; the files must still exist when the record is loaded. Scene::world_origin is
+// always written, as a double: it tells the loader that the camera and lights (and the geometry
+// of the hierarchy file) are already relative to it, so they are not re-based again.
 
 #include "common/scene.h"
 

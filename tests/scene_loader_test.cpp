@@ -929,7 +929,7 @@ std::vector<Mistake> mistakes() {
          R"(scene.json: missing required key "objects")"},
         {"UnknownTopLevelKey", SceneParts().extra(R"("lihgts": [])").json(),
          "scene.json: /lihgts: unknown key (expected one of: ambient, background, camera, groups, "
-         "lights, materials, max_depth, objects)"},
+         "lights, materials, max_depth, objects, world_origin)"},
         {"CameraNotAnObject", SceneParts().camera("[0, 0, 5]").json(),
          "scene.json: /camera: found [0,0,5], expected an object"},
         {"CameraWithoutEye", camera(R"("look_at": [0, 0, 0])"),

@@ -114,6 +114,7 @@ void expect_same_scene_without_geometry(const Scene& original, const Scene& reco
     expect_same(original.background, record.background, "background");
     expect_same(original.ambient, record.ambient, "ambient");
     EXPECT_EQ(original.max_depth, record.max_depth);
+    EXPECT_EQ(original.world_origin, record.world_origin);
     ASSERT_EQ(original.point_lights.size(), record.point_lights.size());
     for (std::size_t i = 0; i < original.point_lights.size(); ++i) {
         SCOPED_TRACE(fmt::format("point light {}", i));
@@ -190,6 +191,8 @@ Scene every_field_scene(const TextureFiles& files) {
     scene.background = Rgb(0.1f, 0.2f, 0.3f);
     scene.ambient = Rgb(-0.0f, std::numeric_limits<float>::denorm_min(), 1e-40f);
     scene.max_depth = 1000;
+    // A double the floats of the scene cannot hold, and a sub-float magnitude.
+    scene.world_origin = Vec3d(1e6 + 0.1, -3.3e38, 1e-300);
 
     scene.point_lights.push_back(PointLight{Vec3f(-1e30f, std::numeric_limits<float>::max(), -0.0f),
                                             Rgb(1.0f / 3.0f, 0, 7)});
@@ -351,7 +354,7 @@ TEST(SceneRecord, HoldsNoGeometry) {
         top.insert(key);
     }
     EXPECT_EQ(top, (std::set<std::string>{"ambient", "background", "camera", "lights", "materials",
-                                          "max_depth", "objects"}));
+                                          "max_depth", "objects", "world_origin"}));
     EXPECT_EQ(record["objects"], Json::array());
     std::set<std::string> keys;
     collect_keys(record, keys);
