@@ -19,15 +19,18 @@ struct Rim {
     Vec3d u;
     Vec3d v;
 
-    Vec3d at(double phi) const { return c + std::cos(phi) * u + std::sin(phi) * v; }
-    /// n·(x × dx/dφ)/|x|²: the integrand of Lambert's contour form, along n.
-    double integrand(const Vec3d& n, double phi) const {
-        const double cs = std::cos(phi);
-        const double sn = std::sin(phi);
-        const Vec3d x = c + cs * u + sn * v;
+    Vec3d at(double phi) const { return at(std::cos(phi), std::sin(phi)); }
+    Vec3d at(double cs, double sn) const { return c + cs * u + sn * v; }
+    /// n·(x × dx/dφ)/|x|² at the point (cos φ, sin φ): the integrand of Lambert's contour
+    /// form, along n.
+    double integrand(const Vec3d& n, double cs, double sn) const {
+        const Vec3d x = at(cs, sn);
         const Vec3d dx = cs * v - sn * u;
         const double r2 = x.squaredNorm();
         return r2 > 0.0 ? n.dot(x.cross(dx)) / r2 : 0.0;
+    }
+    double integrand(const Vec3d& n, double phi) const {
+        return integrand(n, std::cos(phi), std::sin(phi));
     }
 };
 
@@ -46,21 +49,36 @@ bool resolves(double nearest, double speed, double length, int points) {
 /// periodic integrand, doubled (reusing its points) until two estimates agree and the samples
 /// resolve the peak nearest the rim.
 double full_contour(const Rim& rim, const Vec3d& n) {
+    // Every level's angles are multiples of 2π/kMaxPoints: their cosines and sines are
+    // tabulated once, and a doubling only adds the odd multiples of the next level.
+    struct Table {
+        std::array<double, kMaxPoints> cos{};
+        std::array<double, kMaxPoints> sin{};
+        Table() {
+            for (int k = 0; k < kMaxPoints; ++k) {
+                cos[static_cast<std::size_t>(k)] = std::cos(kTwoPi * k / kMaxPoints);
+                sin[static_cast<std::size_t>(k)] = std::sin(kTwoPi * k / kMaxPoints);
+            }
+        }
+    };
+    static const Table table;
     const double speed = rim.u.norm() + rim.v.norm();
-    int points = 32;
     double sum = 0.0;
     double nearest = std::numeric_limits<double>::infinity();
+    const auto add = [&](int index) {
+        const auto i = static_cast<std::size_t>(index);
+        sum += rim.integrand(n, table.cos[i], table.sin[i]);
+        nearest = std::min(nearest, rim.at(table.cos[i], table.sin[i]).norm());
+    };
+    int points = 8;
     for (int k = 0; k < points; ++k) {
-        const double phi = kTwoPi * k / points;
-        sum += rim.integrand(n, phi);
-        nearest = std::min(nearest, rim.at(phi).norm());
+        add(k * (kMaxPoints / points));
     }
     double estimate = sum * kTwoPi / points;
     while (points < kMaxPoints) {
+        const int stride = kMaxPoints / points;
         for (int k = 0; k < points; ++k) {
-            const double phi = kTwoPi * (k + 0.5) / points;
-            sum += rim.integrand(n, phi);
-            nearest = std::min(nearest, rim.at(phi).norm());
+            add(k * stride + stride / 2);
         }
         points *= 2;
         const double refined = sum * kTwoPi / points;
@@ -128,6 +146,8 @@ Vec3d to_double(const Vec3f& v) {
 constexpr double kGoldenAngle = 2.39996322972865332;
 constexpr int kAreaPoints = 32;
 constexpr int kLobePoints = 32;
+/// The lobe's value, relative to its peak, below which a light contributes no highlight.
+constexpr float kNegligibleLobe = 1e-5f;
 
 }  // namespace
 
@@ -172,6 +192,21 @@ float area_light_phong_highlight(const EllipticalAreaLight& light, const Vec3f& 
     }
     const Vec3f facing = face / face.norm();
     const Vec3f r = 2.0f * wo.dot(n) * n - wo;
+    // Nothing to integrate where the lobe is below 1e-5 of its peak over the whole light (most
+    // points of a scene): the light lies within asin(R/d) of its centre's direction, R ≥ the
+    // ellipse's largest radius by Cauchy–Schwarz.
+    const Vec3f to_centre = light.center - p;
+    const float centre_distance = to_centre.norm();
+    const float extent =
+        std::sqrt(light.semi_axis_u.squaredNorm() + light.semi_axis_v.squaredNorm());
+    if (centre_distance > extent) {
+        const float apart = std::acos(std::clamp(r.dot(to_centre) / centre_distance, -1.0f, 1.0f)) -
+                            std::asin(extent / centre_distance);
+        if (apart >= 0.5f * kPi ||
+            (apart > 0.0f && std::pow(std::cos(apart), e) < kNegligibleLobe)) {
+            return 0.0f;
+        }
+    }
     const float lobe_norm = (e + 2.0f) / (2.0f * kPi);
     const float lobe_pdf_norm = (e + 1.0f) / (2.0f * kPi);
     const auto lobe = [&](float cosine) { return cosine > 0.0f ? std::pow(cosine, e) : 0.0f; };
