@@ -273,14 +273,15 @@ class Walk {
         return entry.frame;
     }
 
-    /// Whether the cone goes into the solid bounded by `closed` (nullptr: an open surface)
+    /// Whether a shadow cone goes into the solid bounded by `closed` (nullptr: an open surface)
     /// through a primitive with normal `normal` (its winding's, or a point's, which is outward
-    /// for a closed object's points): clearly against the outward normal. The surface a cone
-    /// leaves faces along it; its neighbours on a curved solid may face a little away, hence
-    /// the margin. Such a primitive is an occluder, never the surface the cone started on.
+    /// for a closed object's points): clearly against the outward normal. The surface a shadow
+    /// cone leaves faces along it; its neighbours on a curved solid may face a little away,
+    /// hence the margin. Such a primitive is an occluder, never the surface the cone started
+    /// on. (A refracted cone does enter the solid whose surface it leaves.)
     static bool enters_solid(const ConeSpace& space, const ClosedSurface* closed,
                              const Vec3f& normal) {
-        return closed != nullptr &&
+        return !kShade && closed != nullptr &&
                closed->outward * normal.dot(space.ray.direction) < -kEnteringCosine * normal.norm();
     }
 
