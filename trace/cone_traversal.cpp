@@ -47,6 +47,9 @@ constexpr float kNearApex = 10.0f;
 /// A point whose tangent plane passes within this many voxel sides of the apex of a cone that
 /// left a surface stands for that surface.
 constexpr float kCoplanarPoint = 0.1f;
+/// A cone whose direction makes at least this cosine with the inward normal of a closed
+/// surface's primitive enters the solid there (enters_solid).
+constexpr float kEnteringCosine = 0.1f;
 /// Per-vertex footprints need every vertex this far from the apex relative to the farthest.
 constexpr float kApexRatio = 0.25f;
 
@@ -270,17 +273,32 @@ class Walk {
         return entry.frame;
     }
 
+    /// Whether a shadow cone goes into the solid bounded by `closed` (nullptr: an open surface)
+    /// through a primitive with normal `normal` (its winding's, or a point's, which is outward
+    /// for a closed object's points): clearly against the outward normal. The surface a shadow
+    /// cone leaves faces along it; its neighbours on a curved solid may face a little away,
+    /// hence the margin. Such a primitive is an occluder, never the surface the cone started
+    /// on. (A refracted cone does enter the solid whose surface it leaves.)
+    static bool enters_solid(const ConeSpace& space, const ClosedSurface* closed,
+                             const Vec3f& normal) {
+        return !kShade && closed != nullptr &&
+               closed->outward * normal.dot(space.ray.direction) < -kEnteringCosine * normal.norm();
+    }
+
     /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
     /// a cone leaving it starts on: its plane passes within `tolerance` of the apex — or within
     /// the cone's own starting radius when the primitive is near the apex, so a curved
     /// surface's neighbouring triangles and points, below the start's resolution, are not
     /// taken for occluders either.
     static bool leaves(const ConeSpace& space, const Vec3f& position, const Vec3f& normal,
-                       float tolerance, float size) {
+                       float tolerance, float size, bool near_apex = true) {
         const Vec3f apart = space.ray.origin - position;
         const float distance = std::abs(normal.dot(apart));
         if (distance <= tolerance) {
             return true;
+        }
+        if (!near_apex) {
+            return false;
         }
         const float near = size + kNearApex * space.start;
         return distance <= space.start && apart.squaredNorm() <= near * near;
@@ -370,7 +388,9 @@ class Walk {
             ++m_stats.back_faces_culled;
             return;
         }
-        if (l.t_min > 0.0f && leaves(space, position, normal, kCoplanarPoint * h, 2.0f * h)) {
+        if (l.t_min > 0.0f &&
+            !enters_solid(space, m_geometry.closed_surfaces().of_object(space.object), normal) &&
+            leaves(space, position, normal, kCoplanarPoint * h, 2.0f * h)) {
             // As for triangles: the surface a cone leaves is not met again by the points that
             // stand for it (a coarse level's points reach far across the start).
             return;
@@ -529,10 +549,13 @@ class Walk {
                     }
                 }
             }
-            if (l.t_min > 0.0f) {
+            if (l.t_min > 0.0f || space.start == 0.0f) {
                 // A cone leaving a surface starts on it: the flat surface it leaves (every
                 // triangle of a floor, coplanar with the apex) cannot be met again, whatever
-                // its footprint makes of the triangles around the start.
+                // its footprint makes of the triangles around the start. A cone from a point
+                // (a pinhole's) sees a plane through its apex edge-on from every ray: a
+                // zero-area surface, which covers nothing (an eye at a floor's height drew it
+                // as slabs over the sky, from hits at t ≈ 0 of no meaningful footprint).
                 const Vec3f edge1 = p[1] - p[0];
                 const Vec3f edge2 = p[2] - p[0];
                 const Vec3f& normal = winding;
@@ -540,8 +563,13 @@ class Walk {
                 const float size = std::sqrt(std::max(edge1.squaredNorm(), edge2.squaredNorm()));
                 const float scale =
                     std::sqrt(std::max(size * size, (p[0] - space.ray.origin).squaredNorm()));
-                if (length > 0.0f &&
-                    leaves(space, p[0], normal / length, kCoplanarTolerance * scale, 2.0f * size)) {
+                // A cone entering a solid through the triangle has not left it: only the
+                // exactly coplanar test applies (a cone from a floor towards a light shut in a
+                // sphere standing on it meets the sphere's bottom within its start radius).
+                const bool entering = enters_solid(
+                    space, m_geometry.closed_surfaces().of_triangle(triangle), normal / length);
+                if (length > 0.0f && leaves(space, p[0], normal / length,
+                                            kCoplanarTolerance * scale, 2.0f * size, !entering)) {
                     return;
                 }
             }

@@ -4,8 +4,9 @@
 // total internal reflection, a depth limit and weight-based pruning. What differs between the
 // two is only how each light and each secondary direction is chosen, so that is a policy:
 //
-// - CentreSampling (whitted): area lights reduced to their centres (hard shadows), mirror and
-//   refraction directions exactly (roughness ignored).
+// - CentreSampling (whitted): area lights' exact unoccluded irradiance and highlight from their
+//   whole extent, times a hard shadow towards their centres; mirror and refraction directions
+//   exactly (roughness ignored).
 // - StochasticSampling (distributed): one uniform point on each elliptical area light (soft
 //   shadows), reflected and refracted directions spread by the material roughness (glossy).
 
@@ -13,6 +14,7 @@
 #include "common/sampling.h"
 #include "common/scene.h"
 #include "common/texture.h"
+#include "trace/area_light.h"
 #include "trace/render.h"
 #include "trace/scene_bvh.h"
 #include "trace/shading.h"
@@ -24,6 +26,9 @@
 namespace mrt {
 
 struct CentreSampling {
+    /// Area lights give their exact unoccluded irradiance and highlight (trace/area_light.h),
+    /// times the hard shadow towards their centre.
+    static constexpr bool kWholeAreaLights = true;
     LightSample area_light(const EllipticalAreaLight& light, const Vec3f& p) const {
         return sample_area_light_centre(light, p);
     }
@@ -32,6 +37,7 @@ struct CentreSampling {
 
 class StochasticSampling {
   public:
+    static constexpr bool kWholeAreaLights = false;
     explicit StochasticSampling(StratifiedSampler& sampler) : m_sampler(sampler) {}
 
     LightSample area_light(const EllipticalAreaLight& light, const Vec3f& p) {
@@ -170,7 +176,29 @@ Rgb RayTree<Sampling>::direct_light(const SurfacePoint& sp, const Material& mate
         add(sample_point_light(light, sp.position));
     }
     for (const EllipticalAreaLight& light : m_scene.area_lights) {
-        add(sampling.area_light(light, sp.position));
+        if constexpr (Sampling::kWholeAreaLights) {
+            const LightSample centre = sampling.area_light(light, sp.position);
+            if (sp.geometric_normal.dot(centre.wi) <= 0.0f) {
+                continue;  // the shadow ray to the centre would start into the surface
+            }
+            const Vec3f& n = sp.shading_normal;
+            const double solid_angle = area_light_projected_solid_angle(light, sp.position, n);
+            const float highlight =
+                (material.specular > 0.0f).any()
+                    ? area_light_phong_highlight(light, sp.position, n, wo, material.phong_exponent)
+                    : 0.0f;
+            if (!(solid_angle > 0.0) && !(highlight > 0.0f)) {
+                continue;
+            }
+            ++counters.shadow;
+            if (m_bvh.occluded(Ray{sp.spawn_origin(centre.wi), centre.wi, centre.distance})) {
+                continue;
+            }
+            sum += light.radiance *
+                   (albedo * static_cast<float>(solid_angle / kPi) + material.specular * highlight);
+        } else {
+            add(sampling.area_light(light, sp.position));
+        }
     }
     return sum;
 }
