@@ -1,6 +1,7 @@
 // mrt-preprocess: builds the multi-resolution point hierarchy of a scene (Wand & Straßer §3) and
 // writes it to one .mrh file.
 
+#include "common/atomic_file.h"
 #include "common/error.h"
 #include "common/hierarchy_file.h"
 #include "common/hierarchy_summary.h"
@@ -44,6 +45,7 @@ struct Arguments {
 };
 
 int run(const Arguments& args) {
+    mrt::check_output_file(args.output, "hierarchy file");
     const auto load_start = Clock::now();
     mrt::SceneLoadOptions load_options;
     load_options.warn = [&](const std::string& message) {

@@ -1,5 +1,6 @@
 // mrt-trace: renders a scene with one of the project's tracers.
 
+#include "common/atomic_file.h"
 #include "common/error.h"
 #include "common/hierarchy_file.h"
 #include "common/image.h"
@@ -175,6 +176,9 @@ void check_method_options(const CLI::App& app, const Arguments& args) {
 
 int run(const Arguments& args) {
     mrt::check_image_output(args.output);
+    if (!args.stats.empty()) {
+        mrt::check_output_file(args.stats, "stats file");
+    }
     const auto load_start = Clock::now();
     if (args.scene.extension() != ".json" && args.scene.extension() != ".mrh") {
         throw mrt::Error(args.scene, "",
