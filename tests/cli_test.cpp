@@ -6,6 +6,7 @@
 #include "common/image.h"
 #include "common/scene_loader.h"
 #include "common/section_file.h"
+#include "common/tool_main.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -22,6 +23,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <new>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -557,6 +561,26 @@ TEST(HierarchyChannels, AFileResealedWithoutItsMirrorChannelIsRefusedByEveryMeth
         EXPECT_FALSE(fs::exists(dir / "out.png")) << method;
     }
     fs::remove_all(dir);
+}
+
+TEST(Messages, OutOfMemorySaysWhatTheToolWasDoing) {
+    CLI::App app{"a tool", "mrt-tool"};
+    char name[] = "mrt-tool";
+    char* argv[] = {name, nullptr};
+    std::ostringstream err;
+    std::streambuf* const old = std::cerr.rdbuf(err.rdbuf());
+    const int code = mrt::run_tool(app, 1, argv, []() -> int {
+        mrt::set_activity("rendering scene.json (65536×65536, whitted)");
+        throw std::bad_alloc();
+    });
+    mrt::set_activity("");
+    const int plain = mrt::run_tool(app, 1, argv, []() -> int { throw std::bad_alloc(); });
+    std::cerr.rdbuf(old);
+    EXPECT_EQ(code, 1);
+    EXPECT_EQ(plain, 1);
+    EXPECT_EQ(err.str(),
+              "mrt-tool: out of memory while rendering scene.json (65536×65536, whitted)\n"
+              "mrt-tool: out of memory\n");
 }
 
 }  // namespace
