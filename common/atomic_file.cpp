@@ -14,6 +14,28 @@
 
 namespace mrt {
 
+void check_output_file(const std::filesystem::path& file, const std::string& what) {
+    const auto refuse = [&](const std::string& reason) {
+        return Error(file, "", fmt::format("cannot write the {}: {}", what, reason));
+    };
+    std::error_code ec;
+    if (std::filesystem::is_directory(file, ec)) {
+        throw refuse("is a directory");
+    }
+    const std::filesystem::path dir =
+        file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
+    if (!std::filesystem::exists(dir, ec)) {
+        throw refuse(fmt::format("directory '{}' does not exist", dir.string()));
+    }
+    if (!std::filesystem::is_directory(dir, ec)) {
+        throw refuse(fmt::format("'{}' is not a directory", dir.string()));
+    }
+    // Creating the temporary needs write and search permission on the directory.
+    if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+        throw refuse(fmt::format("directory '{}' is not writable", dir.string()));
+    }
+}
+
 void write_file_atomically(const std::filesystem::path& file, const std::string& contents,
                            const std::string& what) {
     // Unique per process and call, so concurrent writers never share a temporary.

@@ -9,6 +9,11 @@
 
 namespace mrt {
 
+/// Checks, before any work is done, that `file` could be written atomically: it is not a
+/// directory, and its directory exists and is writable (the temporary is created there). Throws
+/// mrt::Error "FILE: cannot write the WHAT: REASON", `what` naming the file's role.
+void check_output_file(const std::filesystem::path& file, const std::string& what);
+
 /// Writes `contents` to `file` atomically. `what` names the file's role in the error message
 /// ("results file"). Throws mrt::Error naming the file; no temporary is left behind.
 void write_file_atomically(const std::filesystem::path& file, const std::string& contents,

@@ -477,6 +477,34 @@ void HierarchyFile::check_materials(std::uint32_t material_count) const {
     mrt::check_materials(m_file.path(), m_view, material_count);
 }
 
+void HierarchyFile::check_channels(const HierarchyChannels& needed) const {
+    if (m_view.core.empty()) {
+        return;
+    }
+    struct Channel {
+        bool needed;
+        bool present;
+        std::uint32_t tag;
+        const char* what;
+    };
+    const Channel channels[] = {
+        {needed.specular, !m_view.specular.empty(), kSpecular,
+         "specular channel, which a material with a specular colour needs"},
+        {needed.mirror, !m_view.mirror.empty(), kMirror,
+         "mirror channel (reflectivity, roughness, normal gradients), which a reflecting or "
+         "refracting material needs"},
+        {needed.refraction, !m_view.refraction.empty(), kRefraction,
+         "refraction channel (transparency, index of refraction), which a transparent material "
+         "needs"},
+    };
+    for (const Channel& c : channels) {
+        if (c.needed && !c.present) {
+            throw Error(m_file.path(), where(c.tag),
+                        fmt::format("missing: the scene record's materials need the {}", c.what));
+        }
+    }
+}
+
 HierarchyFile::HierarchyFile(SectionFile file) : m_file(std::move(file)) {}
 
 HierarchyFile HierarchyFile::open(const std::filesystem::path& path,

@@ -29,6 +29,7 @@
 // record (common/scene_record.h: camera, lights, materials, textures; JSON text), 'BILD' JSON
 // text: the build parameters.
 
+#include "common/hierarchy_channels.h"
 #include "common/math.h"
 #include "common/quantization.h"
 #include "common/section_file.h"
@@ -271,6 +272,10 @@ class HierarchyFile {
     /// material is below `material_count`: for readers that learn the count from the file's
     /// own scene record.
     void check_materials(std::uint32_t material_count) const;
+    /// Throws mrt::Error naming the file and the first point channel `needed` asks for (by
+    /// needed_channels, the writer's rule) that the file lacks. A file without points needs
+    /// none; the uv channel is not checked (whether a mesh has uvs is known only from it).
+    void check_channels(const HierarchyChannels& needed) const;
     const std::string& scene_json() const { return m_scene_json; }
     const std::string& build_json() const { return m_build_json; }
     const SectionFile& sections() const { return m_file; }

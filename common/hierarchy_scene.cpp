@@ -63,6 +63,13 @@ Scene scene_from_hierarchy(const HierarchyFile& file, const std::filesystem::pat
         index[o] = static_cast<std::uint32_t>(scene.groups.size());
         scene.groups.push_back(std::move(group));
     }
+    // The channels the writer would have written for this scene must all be there: a mirror
+    // whose file lost its reflectivity would otherwise render as a matt surface.
+    std::vector<const Mesh*> meshes;
+    for (const Mesh& mesh : scene.meshes) {
+        meshes.push_back(&mesh);
+    }
+    file.check_channels(needed_channels(meshes, scene.materials));
     const HierarchyObject& world = objects[file.world_object()];
     if (world.kind == HierarchyObjectKind::Group) {
         scene.root = index[file.world_object()];

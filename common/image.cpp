@@ -1,6 +1,7 @@
 #include "common/image.h"
 
 #include "common/error.h"
+#include "common/stderr_capture.h"
 
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/strutil.h>
@@ -155,6 +156,10 @@ Image::Image(int width, int height, const Rgb& fill) {
 
 void check_image_output(const std::filesystem::path& file) {
     encoding_for(file);
+    std::error_code ec;
+    if (std::filesystem::is_directory(file, ec)) {
+        throw Error(file, "", "cannot write image: is a directory");
+    }
     if (const auto problem = directory_problem(file)) {
         throw Error(file, "", *problem);
     }
@@ -181,6 +186,9 @@ void write_image(const std::filesystem::path& file, const Image& image) {
             encoding == FileEncoding::Srgb8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::FLOAT;
         OIIO::ImageSpec spec(image.width(), image.height(), 3, type);
         spec.attribute("oiio:ColorSpace", encoding == FileEncoding::Srgb8 ? "sRGB" : "Linear");
+        // The same image must be the same bytes: the OpenEXR and TIFF writers stamp the time of
+        // writing unless given a DateTime, and write none when it is empty.
+        spec.attribute("DateTime", "");
         if (!out->open(temporary.path().string(), spec)) {
             throw Error(file, "", open_failure_reason(file, one_line(out->geterror())));
         }
@@ -216,6 +224,9 @@ Image read_image(const std::filesystem::path& file) {
         throw Error(file, "", "cannot read image: is a directory");
     }
 
+    // libpng prints its own line for a damaged file before OpenImageIO returns the same
+    // failure, which our one-line error reports.
+    StderrCapture library_messages;
     // Straight (unassociated) alpha keeps colours intact when the alpha channel is dropped.
     OIIO::ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
@@ -242,6 +253,7 @@ Image read_image(const std::filesystem::path& file) {
     const bool integer_8_or_16 = !spec.format.is_floating_point() && spec.format.size() <= 2;
     const bool linearise = integer_8_or_16 && is_srgb_encoded(spec, in->format_name());
     in->close();
+    library_messages.pass_through();
 
     Image image(spec.width, spec.height);
     std::vector<float>& pixels = image.data();

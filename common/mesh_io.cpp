@@ -398,10 +398,15 @@ ObjScan scan_obj(const fs::path& file, std::string_view text) {
             scan.corners.push_back(corner);
             ++corner_count;
         }
-        scan.face_starts.push_back(scan.corners.size());
-        if (corner_count >= 3) {
-            scan.fan_triangles += corner_count - 2;
+        // Refused like any other malformed line: a face line of one or two corners is a
+        // mistake (OBJ's lines are 'l'), and OpenMesh would drop it without a word.
+        if (corner_count < 3) {
+            throw Error(file, location(),
+                        fmt::format("face has {} corner{}, expected at least three", corner_count,
+                                    corner_count == 1 ? "" : "s"));
         }
+        scan.face_starts.push_back(scan.corners.size());
+        scan.fan_triangles += corner_count - 2;
     }
     return scan;
 }

@@ -479,12 +479,37 @@ class SceneBuilder {
     EllipticalAreaLight read_ellipse_light(const JsonObject& object) const {
         EllipticalAreaLight light;
         light.center = world_point(object.required("center"));
-        light.semi_axis_u = object.required("semi_axis_u").nonzero_vec3();
+        const JsonValue semi_axis_u = object.required("semi_axis_u");
+        light.semi_axis_u = semi_axis_u.nonzero_vec3();
         const JsonValue semi_axis_v = object.required("semi_axis_v");
         light.semi_axis_v = semi_axis_v.nonzero_vec3();
-        const float area = light.area();
-        if (!(area > 0.0f) || !std::isfinite(area)) {
+        // The light's area and normal come from the cross product in single precision, whose
+        // squared norm underflows below 1e-38: an axis whose own squared length does is
+        // degenerate at any angle, whatever the other one.
+        const Vec3d u = light.semi_axis_u.cast<double>();
+        const Vec3d v = light.semi_axis_v.cast<double>();
+        const double min_length = std::sqrt(static_cast<double>(std::numeric_limits<float>::min()));
+        for (const auto& [axis, value] :
+             {std::pair{&u, &semi_axis_u}, std::pair{&v, &semi_axis_v}}) {
+            if (axis->norm() < min_length) {
+                value->fail_expected(fmt::format(
+                    "an axis at least {:.3g} long (its squared length underflows single "
+                    "precision)",
+                    min_length));
+            }
+        }
+        // Parallel is a matter of angle, not size: the sine of the angle between the axes, from
+        // unit vectors in double. Below 64 ε the single-precision cross product's rounding
+        // (a few ε |u| |v|) leaves the normal's direction undetermined.
+        const double sine = u.normalized().cross(v.normalized()).norm();
+        if (!(sine > 64.0 * std::numeric_limits<float>::epsilon())) {
             semi_axis_v.fail_expected("a vector not parallel to semi_axis_u (non-zero area)");
+        }
+        const float area = light.area();
+        if (!(area >= std::numeric_limits<float>::min()) || !std::isfinite(area)) {
+            semi_axis_v.fail_expected(fmt::format(
+                "axes whose area π |u| |v| sin θ (here {:.3g}) single precision can compute",
+                std::numbers::pi * u.norm() * v.norm() * sine));
         }
         if (const auto two_sided = object.optional("two_sided")) {
             light.two_sided = two_sided->boolean();

@@ -1,7 +1,10 @@
 #include "common/texture.h"
 
+#include "common/budgets.h"
 #include "common/error.h"
 #include "common/image.h"
+#include "common/stderr_capture.h"
+#include "common/temporary_directory.h"
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
@@ -61,6 +64,11 @@ std::string one_line(std::string message) {
     return message.empty() ? "unknown OpenImageIO error" : message;
 }
 
+/// The first of OpenImageIO's queued messages (a failed write queues one per tile).
+std::string first_line(const std::string& message) {
+    return one_line(message.substr(0, message.find('\n')));
+}
+
 /// `d` shortened to at most kMaxDerivativeLength. The length is taken in double: in float,
 /// d·d overflows from |d| ~ 1e19 and even hypot overflows near FLT_MAX, and an infinite length
 /// would turn the clamp into a zero footprint.
@@ -90,43 +98,12 @@ StFootprint st_footprint(const UvFootprint& footprint) {
     return {clamp_length(dx), clamp_length(dy)};
 }
 
-/// A temporary directory, removed with its contents on destruction.
-class TemporaryDirectory {
-  public:
-    TemporaryDirectory() {
-        std::error_code ec;
-        const fs::path parent = fs::temp_directory_path(ec);
-        if (ec) {
-            throw Error("cannot find a temporary directory for mip-mapped textures ($TMPDIR): " +
-                        ec.message());
-        }
-        std::string pattern = (parent / "mrt-textures-XXXXXX").string();
-        if (::mkdtemp(pattern.data()) == nullptr) {
-            throw Error(parent, "",
-                        fmt::format("cannot create a directory for mip-mapped textures: {}",
-                                    std::generic_category().message(errno)));
-        }
-        m_path = pattern;
-    }
-    ~TemporaryDirectory() {
-        std::error_code ignored;
-        fs::remove_all(m_path, ignored);
-    }
-    TemporaryDirectory(const TemporaryDirectory&) = delete;
-    TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-
-    const fs::path& path() const { return m_path; }
-
-  private:
-    fs::path m_path;
-};
-
 /// Number of colour channels looked up: 1 for grey (+ alpha), 3 for RGB (+ anything).
 int colour_channels(int file_channels) {
     return file_channels >= 3 ? 3 : 1;
 }
 
-/// Pixel type of the mip-map (an OpenEXR file, which stores half and float): 8-bit and half
+/// Pixel type of the mip-map (a TIFF file, which stores half and float): 8-bit and half
 /// values become half floats, finer than 8 bits at every brightness, which linearised 8-bit
 /// values need in the dark; everything else becomes float.
 OIIO::TypeDesc mipmap_format(OIIO::TypeDesc source) {
@@ -139,7 +116,7 @@ OIIO::TypeDesc mipmap_format(OIIO::TypeDesc source) {
 /// The file the TextureSystem reads for `texture`: the texture itself when it is already a tiled
 /// mip-map needing no linearisation, otherwise a linear, tiled, box-filtered mip-map written as
 /// `output` (see texture.h for why).
-fs::path prepare_mipmap(const Texture& texture, const fs::path& output) {
+fs::path prepare_mipmap(const Texture& texture, const fs::path& output, const Budgets& budgets) {
     const fs::path& file = texture.path;
     // Straight alpha, as read_image: dropping alpha must leave the colours intact.
     OIIO::ImageSpec open_config;
@@ -155,6 +132,12 @@ fs::path prepare_mipmap(const Texture& texture, const fs::path& output) {
             fmt::format("cannot read texture: unsupported layout ({}×{}, {} channels{})",
                         spec.width, spec.height, spec.nchannels, spec.deep ? ", deep" : ""));
     }
+    // From the header, before any pixel is read or allocated: a few bytes of PNG header can
+    // ask for gigabytes.
+    check_budget(budgets, "pixels",
+                 saturating_mul(static_cast<std::uint64_t>(spec.width),
+                                static_cast<std::uint64_t>(spec.height)),
+                 fmt::format("pixels (a {}×{} texture)", spec.width, spec.height), file, "");
     const bool mipmapped = spec.tile_width > 0 && in->seek_subimage(0, 1);
     if (mipmapped && !texture.srgb) {
         return file;
@@ -188,9 +171,20 @@ fs::path prepare_mipmap(const Texture& texture, const fs::path& output) {
     config.attribute("maketx:filtername", "box");
     // The hash only serves OpenImageIO's de-duplication of identical files; skip its cost.
     config.attribute("maketx:hash", 0);
+    // The image is in memory, so a failure here is the writing's: a full disk, a quota, a file
+    // size limit. That is what the message says, about the directory, not the texture.
+    errno = 0;
     if (!OIIO::ImageBufAlgo::make_texture(OIIO::ImageBufAlgo::MakeTxTexture, linear,
                                           output.string(), config)) {
-        throw Error(file, "", "cannot mip-map texture: " + one_line(OIIO::geterror()));
+        const int error = errno;
+        std::string reason = first_line(OIIO::geterror());
+        if (error == ENOSPC || error == EFBIG || error == EDQUOT || error == EIO ||
+            error == EROFS || error == EACCES || error == EPERM) {
+            reason = std::generic_category().message(error);
+        }
+        throw Error(
+            output.parent_path(), "",
+            fmt::format("cannot write the mip-map of texture '{}': {}", file.string(), reason));
     }
     return output;
 }
@@ -311,12 +305,12 @@ struct TextureSampler::Impl {
     }
 };
 
-TextureSampler::TextureSampler(const Scene& scene, TextureFilter filter)
+TextureSampler::TextureSampler(const Scene& scene, TextureFilter filter, const Budgets& budgets)
     : m_impl(std::make_unique<Impl>()), m_filter(filter) {
     if (scene.textures.empty()) {
         return;
     }
-    m_impl->mipmaps = std::make_unique<TemporaryDirectory>();
+    m_impl->mipmaps = std::make_unique<TemporaryDirectory>("mrt-textures", "mip-mapped textures");
     m_impl->system = std::shared_ptr<OIIO::TextureSystem>(
         OIIO::TextureSystem::create(false),
         [](OIIO::TextureSystem* ts) { OIIO::TextureSystem::destroy(ts); });
@@ -324,8 +318,11 @@ TextureSampler::TextureSampler(const Scene& scene, TextureFilter filter)
     m_impl->system->attribute("unassociatedalpha", 1);
     for (std::size_t i = 0; i < scene.textures.size(); ++i) {
         const Texture& texture = scene.textures[i];
+        // libpng prints its own line for a damaged file before OpenImageIO returns the same
+        // failure: the one line of our error names it.
+        StderrCapture library_messages;
         const fs::path file =
-            prepare_mipmap(texture, m_impl->mipmaps->path() / fmt::format("{}.exr", i));
+            prepare_mipmap(texture, m_impl->mipmaps->path() / fmt::format("{}.tif", i), budgets);
         const OIIO::ustring name(file.string());
         OIIO::TextureSystem::TextureHandle* handle = m_impl->system->get_texture_handle(name);
         const OIIO::ImageSpec* spec =
@@ -334,6 +331,7 @@ TextureSampler::TextureSampler(const Scene& scene, TextureFilter filter)
             const std::string why = one_line(m_impl->system->geterror());
             throw Error(texture.path, "", "cannot read texture: " + why);
         }
+        library_messages.pass_through();
         m_impl->handles.push_back(handle);
         m_impl->channels.push_back(colour_channels(spec->nchannels));
     }

@@ -8,8 +8,12 @@
 // images are encoded ones (averaging encoded values darkens: a black/white checker would become
 // linear 0.214 instead of 0.5), and OIIO 2.4's TextureSystem has no colour transform to apply
 // first. So the constructor reads each image, applies the sRGB curve when Texture::srgb says so,
-// and writes a tiled, box-filtered mip-map of the linear values (ImageBufAlgo::make_texture, an
-// OpenEXR file) into a private temporary directory (under $TMPDIR), removed by the destructor.
+// and writes a tiled, box-filtered mip-map of the linear values (ImageBufAlgo::make_texture, a
+// TIFF file: OpenEXR 3.1's tiled writer deadlocks when a write fails, as on a full disk) into a
+// private temporary directory ($TMPDIR/mrt-textures-PID-XXXXXX), removed by
+// the destructor, by SIGINT, SIGTERM and SIGHUP, or, after a crash, by the next run
+// (common/temporary_directory.h). (OIIO 2.4 could read the mip-map from memory through an
+// IOProxy, but make_texture writes only to a named file.)
 // 8-bit and half sources are stored as half floats (relative step 2^-11, finer than 8-bit sRGB
 // anywhere), others as float. Non-finite texels become 0. A file that is already tiled and
 // mip-mapped and needs no linearisation (a `maketx` .tx, a mip-mapped .exr) is used in place.
@@ -17,6 +21,7 @@
 //
 // Channels: one or two (grey, grey + alpha) are grey; three or more are RGB, extras ignored.
 
+#include "common/budgets.h"
 #include "common/math.h"
 #include "common/scene.h"
 
@@ -76,7 +81,10 @@ class TextureSampler {
 
     /// Opens and mip-maps every texture of the scene (see the file comment); throws mrt::Error
     /// naming a file that cannot be read or converted.
-    explicit TextureSampler(const Scene& scene, TextureFilter filter = TextureFilter::None);
+    /// A texture of more pixels than `budgets.pixels` is refused from its header, before its
+    /// pixels are read.
+    explicit TextureSampler(const Scene& scene, TextureFilter filter = TextureFilter::None,
+                            const Budgets& budgets = Budgets{});
     ~TextureSampler();
     TextureSampler(const TextureSampler&) = delete;
     TextureSampler& operator=(const TextureSampler&) = delete;

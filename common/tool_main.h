@@ -12,9 +12,20 @@
 #include <iostream>
 #include <new>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mrt {
+
+/// What the tool is doing ("rendering scene.json"), named by run_tool's message when memory runs
+/// out; each tool sets it at every stage of its work with set_activity.
+inline std::string& current_activity() {
+    static std::string activity;
+    return activity;
+}
+inline void set_activity(std::string activity) {
+    current_activity() = std::move(activity);
+}
 
 /// Parses argv into `app`, runs `validate()` (which may throw CLI::ValidationError for
 /// combinations of options), then `work()`, whose return value is the exit code.
@@ -36,7 +47,10 @@ int run_tool(CLI::App& app, int argc, char** argv, Validate&& validate, Work&& w
     } catch (const Error& e) {
         std::cerr << tool << ": " << e.what() << '\n';
     } catch (const std::bad_alloc&) {
-        std::cerr << tool << ": out of memory\n";
+        // Printed in pieces: nothing is allocated to say that allocating failed.
+        const std::string& activity = current_activity();
+        std::cerr << tool << ": out of memory" << (activity.empty() ? "" : " while ") << activity
+                  << '\n';
     } catch (const std::exception& e) {
         std::cerr << tool << ": internal error: " << e.what() << '\n';
     }

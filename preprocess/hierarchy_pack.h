@@ -4,6 +4,7 @@
 // triangles, vertices and instances, and leaves out the channels the scene's materials do not
 // need.
 
+#include "common/hierarchy_channels.h"
 #include "common/hierarchy_file.h"
 #include "common/mesh.h"
 #include "common/scene.h"
@@ -15,16 +16,6 @@
 #include <vector>
 
 namespace mrt {
-
-/// Which optional point channels the materials used by `meshes` need.
-struct HierarchyChannels {
-    bool specular = false;    ///< Some used material has a specular colour.
-    bool mirror = false;      ///< Some used material reflects or refracts: normal gradients.
-    bool refraction = false;  ///< Some used material is transparent.
-    bool uvs = false;         ///< Some used material is textured and its mesh has uvs.
-};
-HierarchyChannels needed_channels(std::span<const Mesh* const> meshes,
-                                  const std::vector<Material>& materials);
 
 /// The file's records for a scene's hierarchy; `scene_json` and `build_json` are stored as the
 /// file's scene and build records.

@@ -1,6 +1,7 @@
 // mrt-preprocess: builds the multi-resolution point hierarchy of a scene (Wand & Straßer §3) and
 // writes it to one .mrh file.
 
+#include "common/atomic_file.h"
 #include "common/error.h"
 #include "common/hierarchy_file.h"
 #include "common/hierarchy_summary.h"
@@ -44,6 +45,8 @@ struct Arguments {
 };
 
 int run(const Arguments& args) {
+    mrt::check_output_file(args.output, "hierarchy file");
+    mrt::set_activity("loading " + args.scene.string());
     const auto load_start = Clock::now();
     mrt::SceneLoadOptions load_options;
     load_options.warn = [&](const std::string& message) {
@@ -59,6 +62,7 @@ int run(const Arguments& args) {
             : std::make_unique<mrt::TextureSampler>(scene, mrt::TextureFilter::None);
     const double load_seconds = seconds_since(load_start);
 
+    mrt::set_activity("building the hierarchy of " + args.scene.string());
     const auto build_start = Clock::now();
     mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene, args.flatten),
                            args.quiet);
@@ -78,6 +82,7 @@ int run(const Arguments& args) {
         {"seed", args.octree.seed},
         {"flatten", args.flatten},
     };
+    mrt::set_activity("writing " + args.output.string());
     const auto write_start = Clock::now();
     const mrt::HierarchyData data =
         mrt::pack_hierarchy(hierarchy, scene.materials, scene_record, build.dump());

@@ -1,18 +1,36 @@
 // mrt-trace as a user meets it: exit codes, one-line messages naming the file, and the stats
 // JSON contract.
 
+#include "common/error.h"
+#include "common/hierarchy_file.h"
+#include "common/image.h"
+#include "common/scene_loader.h"
+#include "common/section_file.h"
+#include "common/tool_main.h"
+
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <new>
+#include <sstream>
 #include <string>
+#include <string_view>
+#include <thread>
 #include <utility>
+#include <vector>
 
 namespace {
 
@@ -257,6 +275,312 @@ TEST(MrtTraceCli, CropsPastedByOiiotoolAreTheFullFrame) {
     const std::string diff = "oiiotool --fail 0 --failpercent 0 " + (dir / "full.exr").string() +
                              " " + (dir / "pasted.exr").string() + " --diff > /dev/null";
     EXPECT_EQ(std::system(diff.c_str()), 0) << diff;
+}
+
+}  // namespace
+
+// ---- Every tool's output paths, checked before any work -------------------------------------
+
+namespace {
+
+/// Runs `exe` with `arguments` through the shell: its exit code and its stdout and stderr.
+TraceRun run_tool(const char* exe, const std::string& arguments) {
+    const std::string command = std::string(exe) + " " + arguments + " 2>&1";
+    FILE* pipe = popen(command.c_str(), "r");
+    if (pipe == nullptr) {
+        return {-1, "popen failed"};
+    }
+    std::string output;
+    std::array<char, 4096> buffer{};
+    while (fgets(buffer.data(), static_cast<int>(buffer.size()), pipe) != nullptr) {
+        output += buffer.data();
+    }
+    const int status = pclose(pipe);
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), output};
+}
+
+std::vector<std::string> entries(const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(dir)) {
+        names.push_back(entry.path().filename().string());
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+TEST(OutputPaths, MrtTraceRefusesAnUnwritableStatsPathBeforeReadingTheScene) {
+    const fs::path dir = temp_dir();
+    fs::create_directories(dir / "taken.json");
+    // The scene does not exist: a refusal that names the stats file was made before reading it.
+    const std::string scene = (dir / "missing-scene.json").string();
+    const std::string image = (dir / "out.png").string();
+    const std::pair<std::string, std::string> cases[] = {
+        {(dir / "no-dir" / "stats.json").string(), "cannot write the stats file: directory '" +
+                                                       (dir / "no-dir").string() +
+                                                       "' does not exist"},
+        {(dir / "taken.json").string(), "cannot write the stats file: is a directory"},
+    };
+    for (const auto& [stats, reason] : cases) {
+        const TraceRun run = run_tool(MRT_TRACE_EXE, scene + " -o " + image + " --stats " + stats);
+        EXPECT_EQ(run.exit_code, 1);
+        EXPECT_EQ(run.output, "mrt-trace: " + stats + ": " + reason + "\n");
+    }
+    // With a real scene, nothing is rendered or written either.
+    const TraceRun run = run_tool(MRT_TRACE_EXE, scene_path() + " -o " + image + " --stats " +
+                                                     (dir / "no-dir" / "stats.json").string());
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(count_lines(run.output), 1) << run.output;
+    EXPECT_EQ(entries(dir), std::vector<std::string>{"taken.json"});
+    fs::remove_all(dir);
+}
+
+TEST(OutputPaths, MrtTraceRefusesAnImagePathThatIsADirectory) {
+    const fs::path dir = temp_dir();
+    fs::create_directories(dir / "out.png");
+    const TraceRun run = run_tool(
+        MRT_TRACE_EXE, (dir / "missing-scene.json").string() + " -o " + (dir / "out.png").string());
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.output, "mrt-trace: " + (dir / "out.png").string() +
+                              ": cannot write image: is a directory\n");
+    fs::remove_all(dir);
+}
+
+TEST(OutputPaths, MrtPreprocessRefusesAnUnwritableOutputBeforeReadingTheScene) {
+    const fs::path dir = temp_dir();
+    fs::create_directories(dir / "taken.mrh");
+    const std::string scene = (dir / "missing-scene.json").string();
+    const std::pair<std::string, std::string> cases[] = {
+        {(dir / "no-dir" / "out.mrh").string(), "cannot write the hierarchy file: directory '" +
+                                                    (dir / "no-dir").string() + "' does not exist"},
+        {(dir / "taken.mrh").string(), "cannot write the hierarchy file: is a directory"},
+    };
+    for (const auto& [output, reason] : cases) {
+        const TraceRun run = run_tool(MRT_PREPROCESS_EXE, scene + " -o " + output);
+        EXPECT_EQ(run.exit_code, 1);
+        EXPECT_EQ(run.output, "mrt-preprocess: " + output + ": " + reason + "\n");
+    }
+    EXPECT_EQ(entries(dir), std::vector<std::string>{"taken.mrh"});
+    fs::remove_all(dir);
+}
+
+TEST(OutputPaths, MrtCompareRefusesAnOutputDirectoryThatIsAFileBeforeRendering) {
+    const fs::path dir = temp_dir();
+    std::ofstream(dir / "results") << "a file";
+    const TraceRun run =
+        run_tool(MRT_COMPARE_EXE, scene_path() + " --out " + (dir / "results").string() +
+                                      " --width 8 --height 8 --method whitted");
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.output, "mrt-compare: " + (dir / "results").string() +
+                              ": cannot create the output directory\n");
+    EXPECT_EQ(entries(dir), std::vector<std::string>{"results"});
+    fs::remove_all(dir);
+}
+
+// ---- Signals: no mip-map directory left behind -----------------------------------------------
+
+/// Spawns mrt-trace with TMPDIR set and the cleanup signals at their default disposition (a
+/// test runner may start us with SIGINT ignored, which the child would inherit).
+pid_t spawn_trace(const std::vector<std::string>& arguments, const fs::path& tmpdir) {
+    std::vector<std::string> strings = {MRT_TRACE_EXE};
+    strings.insert(strings.end(), arguments.begin(), arguments.end());
+    std::vector<char*> argv;
+    for (std::string& s : strings) {
+        argv.push_back(s.data());
+    }
+    argv.push_back(nullptr);
+    std::vector<std::string> environment = {"TMPDIR=" + tmpdir.string()};
+    for (char** e = environ; *e != nullptr; ++e) {
+        if (std::string_view(*e).rfind("TMPDIR=", 0) != 0) {
+            environment.emplace_back(*e);
+        }
+    }
+    std::vector<char*> envp;
+    for (std::string& s : environment) {
+        envp.push_back(s.data());
+    }
+    envp.push_back(nullptr);
+    posix_spawnattr_t attributes;
+    posix_spawnattr_init(&attributes);
+    sigset_t defaults;
+    sigemptyset(&defaults);
+    for (const int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+        sigaddset(&defaults, signal_number);
+    }
+    posix_spawnattr_setsigdefault(&attributes, &defaults);
+    sigset_t none;
+    sigemptyset(&none);
+    posix_spawnattr_setsigmask(&attributes, &none);
+    posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
+    pid_t pid = -1;
+    const int error = posix_spawn(&pid, argv[0], nullptr, &attributes, argv.data(), envp.data());
+    posix_spawnattr_destroy(&attributes);
+    return error == 0 ? pid : -1;
+}
+
+TEST(MrtTraceSignals, SigtermSigintAndSighupMidRenderLeaveNoMipMapsAndEndTheRunBySignal) {
+    const fs::path dir = temp_dir();
+    const std::string textured =
+        std::string(MRT_SOURCE_DIR) + "/tests/data/scene/all_features.json";
+    for (const int signal_number : {SIGTERM, SIGINT, SIGHUP}) {
+        const fs::path tmp = dir / fmt::format("tmp-{}", signal_number);
+        fs::create_directories(tmp);
+        // Far more work than the test waits for: the signal always arrives mid-render.
+        const pid_t pid = spawn_trace({textured, "-o", (dir / "out.exr").string(), "--method",
+                                       "distributed", "--spp", "4096", "--threads", "1", "-q"},
+                                      tmp);
+        ASSERT_GT(pid, 0);
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+        while (fs::is_empty(tmp) && std::chrono::steady_clock::now() < deadline) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        EXPECT_FALSE(fs::is_empty(tmp)) << "no mip-map directory appeared";
+        std::this_thread::sleep_for(std::chrono::milliseconds(300));
+        ::kill(pid, signal_number);
+        int status = 0;
+        ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+        ASSERT_TRUE(WIFSIGNALED(status)) << "exit status " << status;
+        EXPECT_EQ(WTERMSIG(status), signal_number);
+        EXPECT_TRUE(fs::is_empty(tmp)) << tmp;
+        EXPECT_FALSE(fs::exists(dir / "out.exr"));
+    }
+    fs::remove_all(dir);
+}
+
+// ---- Messages --------------------------------------------------------------------------------
+
+TEST(Messages, ATruncatedPngTextureIsOneLineWithoutTheLibrarysOwn) {
+    const fs::path dir = temp_dir();
+    mrt::Image image(64, 64, mrt::Rgb(0.5f, 0.25f, 0.125f));
+    for (int i = 0; i < 64; ++i) {
+        image.set(i, (i * 7) % 64, mrt::Rgb(1.0f, 1.0f, 1.0f));
+    }
+    mrt::write_image(dir / "whole.png", image);
+    const auto size = static_cast<std::streamsize>(fs::file_size(dir / "whole.png"));
+    std::string bytes(static_cast<std::size_t>(size), '\0');
+    std::ifstream(dir / "whole.png", std::ios::binary).read(bytes.data(), size);
+    // Cut in the header (libpng fails reading IHDR) and in the pixel data (it fails in IDAT).
+    for (const std::size_t length : {std::size_t{20}, bytes.size() / 2}) {
+        std::ofstream(dir / "cut.png", std::ios::binary | std::ios::trunc)
+            .write(bytes.data(), static_cast<std::streamsize>(length));
+        std::ofstream(dir / "scene.json") << R"({
+          "camera": {"eye": [0, 1, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40,
+                     "resolution": [8, 8]},
+          "materials": {"tex": {"diffuse": 1, "texture": {"file": "cut.png"}}},
+          "lights": [{"type": "point", "position": [0, 3, 0], "intensity": 5}],
+          "objects": [{"shape": "quad", "size": [2, 2], "material": "tex"}]
+        })";
+        const TraceRun run =
+            run_trace((dir / "scene.json").string() + " -o " + (dir / "out.png").string());
+        EXPECT_EQ(run.exit_code, 1);
+        EXPECT_EQ(count_lines(run.output), 1) << run.output;
+        EXPECT_EQ(run.output.rfind(
+                      "mrt-trace: " + (dir / "cut.png").string() + ": cannot read texture: ", 0),
+                  0u)
+            << run.output;
+    }
+    fs::remove_all(dir);
+}
+
+std::string ellipse_scene(const std::string& u, const std::string& v) {
+    return R"({"camera": {"eye": [0, 1, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40,
+                          "resolution": [8, 8]},
+              "materials": {"white": {"diffuse": 1}},
+              "lights": [{"type": "ellipse", "center": [0, 2, 0], "semi_axis_u": )" +
+           u + R"(, "semi_axis_v": )" + v + R"(, "power": 10}],
+              "objects": [{"shape": "quad", "size": [2, 2], "material": "white"}]})";
+}
+
+/// The loader's message for the scene, or "" when it is accepted.
+std::string ellipse_message(const std::string& u, const std::string& v) {
+    try {
+        mrt::parse_scene(ellipse_scene(u, v), "scene.json");
+    } catch (const mrt::Error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(Messages, EllipseAxesAreParallelByTheirAngleAndDegenerateByTheirLength) {
+    // Perpendicular axes of 1e-10 are a fine (if tiny) light; so are axes 1e-3 rad apart.
+    EXPECT_EQ(ellipse_message("[1e-10, 0, 0]", "[0, 0, 1e-10]"), "");
+    EXPECT_EQ(ellipse_message("[1, 0, 0]", "[1, 0, 0.001]"), "");
+    EXPECT_EQ(ellipse_message("[1e-20, 0, 0]", "[0, 0, 1e-20]"),
+              "scene.json: /lights/0/semi_axis_u: found [1e-20,0,0], expected an axis at least "
+              "1.08e-19 long (its squared length underflows single precision)");
+    EXPECT_EQ(ellipse_message("[1, 0, 0]", "[0, 0, 1e-25]"),
+              "scene.json: /lights/0/semi_axis_v: found [0,0,1e-25], expected an axis at least "
+              "1.08e-19 long (its squared length underflows single precision)");
+    EXPECT_EQ(ellipse_message("[1e-5, 0, 0]", "[-2e-5, 1e-12, 0]"),
+              "scene.json: /lights/0/semi_axis_v: found [-2e-05,1e-12,0], expected a vector not "
+              "parallel to semi_axis_u (non-zero area)");
+    EXPECT_EQ(ellipse_message("[1e30, 0, 0]", "[0, 1e30, 0]"),
+              "scene.json: /lights/0/semi_axis_v: found [0,1e+30,0], expected axes whose area "
+              "π |u| |v| sin θ (here 3.14e+60) single precision can compute");
+}
+
+// ---- A hierarchy file that lost a channel its scene needs --------------------------------------
+
+TEST(HierarchyChannels, AFileResealedWithoutItsMirrorChannelIsRefusedByEveryMethod) {
+    const fs::path dir = temp_dir();
+    std::ofstream(dir / "mirror.json") << R"({
+      "camera": {"eye": [0, 1, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40,
+                 "resolution": [8, 8]},
+      "materials": {"mirror": {"diffuse": 0.1, "reflectivity": 0.9}},
+      "lights": [{"type": "point", "position": [0, 3, 0], "intensity": 5}],
+      "objects": [{"shape": "sphere", "radius": 1, "segments": 24, "rings": 12,
+                   "material": "mirror"}]
+    })";
+    const fs::path whole = dir / "whole.mrh";
+    const TraceRun built = run_tool(
+        MRT_PREPROCESS_EXE, (dir / "mirror.json").string() + " -o " + whole.string() + " -q");
+    ASSERT_EQ(built.exit_code, 0) << built.output;
+    const fs::path resealed = dir / "resealed.mrh";
+    {
+        const mrt::SectionFile file = mrt::SectionFile::open(whole, mrt::kHierarchyFileVersion);
+        ASSERT_TRUE(file.has(mrt::section_tag("PMIR")));
+        mrt::SectionFileWriter writer(mrt::kHierarchyFileVersion);
+        for (const mrt::SectionInfo& section : file.sections()) {
+            if (section.tag != mrt::section_tag("PMIR")) {
+                writer.add(section.tag, file.bytes(section.tag), section.element_size);
+            }
+        }
+        writer.write(resealed);
+    }
+    const std::string expected =
+        "mrt-trace: " + resealed.string() +
+        ": section 'PMIR': missing: the scene record's materials need the mirror channel "
+        "(reflectivity, roughness, normal gradients), which a reflecting or refracting material "
+        "needs\n";
+    const TraceRun whole_run = run_trace(whole.string() + " -o " + (dir / "whole.png").string());
+    EXPECT_EQ(whole_run.exit_code, 0) << whole_run.output;
+    for (const char* method : {"whitted", "cone"}) {
+        const TraceRun run = run_trace(resealed.string() + " -o " + (dir / "out.png").string() +
+                                       " --method " + method);
+        EXPECT_EQ(run.exit_code, 1) << method;
+        EXPECT_EQ(run.output, expected) << method;
+        EXPECT_FALSE(fs::exists(dir / "out.png")) << method;
+    }
+    fs::remove_all(dir);
+}
+
+TEST(Messages, OutOfMemorySaysWhatTheToolWasDoing) {
+    CLI::App app{"a tool", "mrt-tool"};
+    char name[] = "mrt-tool";
+    char* argv[] = {name, nullptr};
+    std::ostringstream err;
+    std::streambuf* const old = std::cerr.rdbuf(err.rdbuf());
+    const int code = mrt::run_tool(app, 1, argv, []() -> int {
+        mrt::set_activity("rendering scene.json (65536×65536, whitted)");
+        throw std::bad_alloc();
+    });
+    mrt::set_activity("");
+    const int plain = mrt::run_tool(app, 1, argv, []() -> int { throw std::bad_alloc(); });
+    std::cerr.rdbuf(old);
+    EXPECT_EQ(code, 1);
+    EXPECT_EQ(plain, 1);
+    EXPECT_EQ(err.str(),
+              "mrt-tool: out of memory while rendering scene.json (65536×65536, whitted)\n"
+              "mrt-tool: out of memory\n");
 }
 
 }  // namespace

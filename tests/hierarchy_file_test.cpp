@@ -502,5 +502,41 @@ TEST(HierarchyFileReader, SpansStayValidWhenTheFileIsMoved) {
     expect_same_records(moved.triangles(), d.triangles, "triangles");
 }
 
+TEST(HierarchyFileReader, RefusesAFileWithoutAChannelTheScenesMaterialsNeed) {
+    ScratchDirectory dir("mrt_hierarchy_file");
+    const HierarchyData d = small_hierarchy();
+    const fs::path whole = dir.path() / "whole.mrh";
+    write_hierarchy_file(whole, d);
+    HierarchyChannels all;
+    all.specular = all.mirror = all.refraction = true;
+    EXPECT_NO_THROW(HierarchyFile::open(whole).check_channels(all));
+    const struct {
+        const char (&tag)[5];
+        bool HierarchyChannels::*channel;
+        std::string what;
+    } cases[] = {
+        {"PSPC", &HierarchyChannels::specular,
+         "specular channel, which a material with a specular colour needs"},
+        {"PMIR", &HierarchyChannels::mirror,
+         "mirror channel (reflectivity, roughness, normal gradients), which a reflecting or "
+         "refracting material needs"},
+        {"PTRN", &HierarchyChannels::refraction,
+         "refraction channel (transparency, index of refraction), which a transparent material "
+         "needs"},
+    };
+    for (const auto& c : cases) {
+        const fs::path path = dir.path() / (std::string("without-") + c.tag + ".mrh");
+        write_raw(path, d, header_of(d), section_tag(c.tag));
+        const HierarchyFile file = HierarchyFile::open(path);  // a valid file in itself
+        HierarchyChannels needed;
+        EXPECT_NO_THROW(file.check_channels(needed)) << c.tag;
+        needed.*c.channel = true;
+        EXPECT_EQ(error_message([&] { file.check_channels(needed); }),
+                  path.string() + ": section '" + c.tag +
+                      "': missing: the scene record's materials need the " + c.what)
+            << c.tag;
+    }
+}
+
 }  // namespace
 }  // namespace mrt

@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <thread>
@@ -234,6 +235,29 @@ TEST_F(ImageFileTest, JpegRoundTripOfAFlatColourIsClose) {
     }
 }
 
+std::string file_bytes(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST_F(ImageFileTest, TheSameImageIsTheSameBytesWhenWrittenLater) {
+    // The OpenEXR and TIFF writers stamp the time by default (whole seconds), so the second
+    // writing comes more than a second after the first.
+    const Image image = gradient(7, 5);
+    const std::vector<std::string> extensions = {".exr", ".tif",  ".tiff", ".png",
+                                                 ".jpg", ".jpeg", ".hdr"};
+    for (const std::string& extension : extensions) {
+        mrt::write_image(dir() / ("first" + extension), image);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+    for (const std::string& extension : extensions) {
+        mrt::write_image(dir() / ("second" + extension), image);
+        const std::string first = file_bytes(dir() / ("first" + extension));
+        EXPECT_FALSE(first.empty()) << extension;
+        EXPECT_TRUE(first == file_bytes(dir() / ("second" + extension))) << extension;
+    }
+}
+
 TEST_F(ImageFileTest, OverwritingReplacesTheFile) {
     const fs::path file = dir() / "over.exr";
     mrt::write_image(file, Image(4, 4, Rgb(1.0f, 2.0f, 3.0f)));
@@ -408,6 +432,9 @@ TEST(ImageOutputCheck, RefusesWhatWriteImageWouldRefuseBeforeAnyWork) {
     EXPECT_NO_THROW(check_image_output(dir / "ok.exr"));
     EXPECT_THROW(check_image_output(dir / "bad.xyz"), Error);
     EXPECT_THROW(check_image_output(dir / "missing" / "x.png"), Error);
+    std::filesystem::create_directories(dir / "taken.png");
+    EXPECT_EQ(testing::error_message([&] { check_image_output(dir / "taken.png"); }),
+              (dir / "taken.png").string() + ": cannot write image: is a directory");
     EXPECT_FALSE(std::filesystem::exists(dir / "ok.png"));
     std::filesystem::remove_all(dir);
 }

@@ -853,6 +853,22 @@ TEST(MeshIo, RefusesMalformedObjLines) {
                    {"line 4", "texture coordinate 1"});
 }
 
+TEST(MeshIo, RefusesObjFacesOfFewerThanThreeCorners) {
+    TempDir dir;
+    const std::string vertices = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    const std::pair<std::string, std::string> cases[] = {
+        {"f\n", "line 5: face has 0 corners, expected at least three"},
+        {"f # nothing\n", "line 5: face has 0 corners, expected at least three"},
+        {"f 1\n", "line 5: face has 1 corner, expected at least three"},
+        {"f 1 2\n", "line 5: face has 2 corners, expected at least three"},
+        {"f 1 3 # a comment\n", "line 5: face has 2 corners, expected at least three"},
+    };
+    for (const auto& [line, expected] : cases) {
+        const fs::path file = dir.write("short_face.obj", vertices + line);
+        EXPECT_EQ(load_error(file), file.string() + ": " + expected) << line;
+    }
+}
+
 /// A file OpenMesh reads but complains about on its log streams: a missing material library.
 constexpr std::string_view kObjWithMissingMaterials =
     "mtllib no_such_file.mtl\nusemtl nothing\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";

@@ -7,12 +7,18 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <csignal>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <sstream>
 #include <string>
@@ -635,6 +641,155 @@ TEST_F(TextureFiltering, MipMapsLiveInATemporaryDirectoryRemovedWithTheSampler) 
     } else {
         ::unsetenv("TMPDIR");
     }
+}
+
+/// A directory set as $TMPDIR for the test's lifetime, then restored.
+class TemporaryTmpdir {
+  public:
+    explicit TemporaryTmpdir(fs::path dir) : m_dir(std::move(dir)) {
+        fs::create_directories(m_dir);
+        const char* old = std::getenv("TMPDIR");
+        m_had_old = old != nullptr;
+        m_old = m_had_old ? old : "";
+        ::setenv("TMPDIR", m_dir.c_str(), 1);
+    }
+    ~TemporaryTmpdir() {
+        if (m_had_old) {
+            ::setenv("TMPDIR", m_old.c_str(), 1);
+        } else {
+            ::unsetenv("TMPDIR");
+        }
+    }
+    TemporaryTmpdir(const TemporaryTmpdir&) = delete;
+    TemporaryTmpdir& operator=(const TemporaryTmpdir&) = delete;
+
+  private:
+    fs::path m_dir;
+    bool m_had_old = false;
+    std::string m_old;
+};
+
+std::vector<std::string> entry_names(const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(dir)) {
+        names.push_back(entry.path().filename().string());
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+/// The id of a process that has exited and been reaped, so that no process has it (until the
+/// system hands it out again, which takes a full cycle of process ids).
+pid_t dead_pid() {
+    const pid_t child = ::fork();
+    if (child == 0) {
+        ::_exit(0);
+    }
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    return child;
+}
+
+TEST_F(TextureFiltering, SweepsTheMipMapDirectoriesOfProcessesThatNoLongerExist) {
+    Scene scene;
+    add_texture(scene, checker(8, 1), "checker.png", true);
+    const fs::path tmp = dir() / "tmp";
+    const TemporaryTmpdir tmpdir(tmp);
+    const std::string dead = fmt::format("mrt-textures-{}-a1b2c3", dead_pid());
+    const std::string live = fmt::format("mrt-textures-{}-d4e5f6", ::getppid());
+    const std::string old_style = "mrt-textures-123456";
+    const std::string not_a_directory = fmt::format("mrt-textures-{}-file", dead_pid());
+    for (const std::string& name : {dead, live, old_style}) {
+        fs::create_directories(tmp / name);
+        std::ofstream(tmp / name / "0.tif") << "mip-map";
+    }
+    std::ofstream(tmp / not_a_directory) << "not ours";
+    {
+        const TextureSampler sampler(scene, TextureFilter::Trilinear);
+        const std::vector<std::string> names = entry_names(tmp);
+        EXPECT_EQ(std::count(names.begin(), names.end(), dead), 0);
+        EXPECT_EQ(names.size(), 4u);
+    }
+    const std::vector<std::string> left = {live, old_style, not_a_directory};
+    std::vector<std::string> expected = left;
+    std::sort(expected.begin(), expected.end());
+    EXPECT_EQ(entry_names(tmp), expected);
+}
+
+/// Rewrites the size in a PNG's IHDR chunk (and the chunk's CRC), leaving the data as it was.
+void set_png_size(const fs::path& file, std::uint32_t width, std::uint32_t height) {
+    std::fstream io(file, std::ios::in | std::ios::out | std::ios::binary);
+    std::vector<unsigned char> ihdr(17);  // "IHDR" and its 13 bytes of data
+    io.seekg(12);
+    io.read(reinterpret_cast<char*>(ihdr.data()), 17);
+    for (int k = 0; k < 4; ++k) {
+        ihdr[static_cast<std::size_t>(4 + k)] = static_cast<unsigned char>(width >> (24 - 8 * k));
+        ihdr[static_cast<std::size_t>(8 + k)] = static_cast<unsigned char>(height >> (24 - 8 * k));
+    }
+    std::uint32_t crc = 0xffffffffU;
+    for (const unsigned char byte : ihdr) {
+        crc ^= byte;
+        for (int bit = 0; bit < 8; ++bit) {
+            crc = (crc >> 1) ^ (0xedb88320U & (0U - (crc & 1U)));
+        }
+    }
+    crc = ~crc;
+    for (int k = 0; k < 4; ++k) {
+        ihdr.push_back(static_cast<unsigned char>(crc >> (24 - 8 * k)));
+    }
+    io.seekp(12);
+    io.write(reinterpret_cast<const char*>(ihdr.data()), static_cast<std::streamsize>(ihdr.size()));
+}
+
+TEST_F(TextureFiltering, TextureOverThePixelBudgetIsRefusedFromItsHeader) {
+    Scene scene;
+    add_texture(scene, checker(4, 1), "huge.png", true);
+    set_png_size(scene.textures[0].path, 65535, 65535);
+    const std::string file = scene.textures[0].path.string();
+    // Its 4.3e9 pixels would need 51 GB as floats; the header alone decides.
+    EXPECT_EQ(testing::error_message([&] { const TextureSampler sampler(scene); }),
+              file +
+                  ": the scene asks for 4.29e+09 pixels (a 65535×65535 texture), over the "
+                  "limit of 2.68e+08 (raise it with --budget pixels=N)");
+
+    Scene small;
+    add_texture(small, checker(4, 1), "small.png", true);
+    Budgets budgets;
+    budgets.pixels = 15;
+    EXPECT_EQ(testing::error_message(
+                  [&] { const TextureSampler sampler(small, TextureFilter::None, budgets); }),
+              small.textures[0].path.string() +
+                  ": the scene asks for 16 pixels (a 4×4 texture), over the limit of 15 (raise it "
+                  "with --budget pixels=N)");
+    budgets.pixels = 16;
+    EXPECT_NO_THROW(const TextureSampler sampler(small, TextureFilter::None, budgets));
+}
+
+TEST_F(TextureFiltering, AFullDiskWhileMipMappingIsAWriteFailureOfTheDirectory) {
+    Scene scene;
+    add_texture(scene, checker(256, 3), "big.exr", false);
+    const fs::path tmp = dir() / "tmp";
+    const TemporaryTmpdir tmpdir(tmp);
+    // A file size limit fails the mip-map's writes as a full disk would (EFBIG instead of
+    // ENOSPC), without filling one; SIGXFSZ ignored so the write returns the error.
+    struct rlimit saved {};
+    ::getrlimit(RLIMIT_FSIZE, &saved);
+    const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+    struct rlimit limited = saved;
+    limited.rlim_cur = 16384;
+    ::setrlimit(RLIMIT_FSIZE, &limited);
+    const std::string message =
+        testing::error_message([&] { const TextureSampler sampler(scene); });
+    ::setrlimit(RLIMIT_FSIZE, &saved);
+    std::signal(SIGXFSZ, old_handler);
+
+    const std::string prefix = (tmp / "mrt-textures-").string();
+    const std::string suffix = ": cannot write the mip-map of texture '" +
+                               scene.textures[0].path.string() + "': File too large";
+    EXPECT_EQ(message.rfind(prefix, 0), 0u) << message;
+    ASSERT_GE(message.size(), suffix.size()) << message;
+    EXPECT_EQ(message.substr(message.size() - suffix.size()), suffix) << message;
+    EXPECT_TRUE(fs::is_empty(tmp));
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 namespace {
 
 int run(const std::filesystem::path& path) {
+    mrt::set_activity("reading " + path.string());
     const mrt::HierarchyFile file = mrt::HierarchyFile::open(path);
     std::cout << fmt::format("{}: mrtrace hierarchy, format version {}, {} bytes\n", path.string(),
                              file.sections().version(), file.sections().file_size());

@@ -1,5 +1,6 @@
 // mrt-trace: renders a scene with one of the project's tracers.
 
+#include "common/atomic_file.h"
 #include "common/error.h"
 #include "common/hierarchy_file.h"
 #include "common/image.h"
@@ -175,6 +176,10 @@ void check_method_options(const CLI::App& app, const Arguments& args) {
 
 int run(const Arguments& args) {
     mrt::check_image_output(args.output);
+    if (!args.stats.empty()) {
+        mrt::check_output_file(args.stats, "stats file");
+    }
+    mrt::set_activity("loading " + args.scene.string());
     const auto load_start = Clock::now();
     if (args.scene.extension() != ".json" && args.scene.extension() != ".mrh") {
         throw mrt::Error(args.scene, "",
@@ -214,6 +219,8 @@ int run(const Arguments& args) {
     // Building covers everything prepared before the first ray: the BVH and the mip-mapped
     // textures, so render times compare tracing alone.
     // The cone tracers read the hierarchy file instead of a BVH.
+    mrt::set_activity(
+        fmt::format("preparing {} for the {} method", args.scene.string(), args.method));
     const auto build_start = Clock::now();
     std::optional<mrt::SceneBvh> bvh;
     std::optional<mrt::HierarchyFile> file;
@@ -244,6 +251,8 @@ int run(const Arguments& args) {
     }
     const double build_seconds = seconds_since(build_start);
 
+    mrt::set_activity(fmt::format("rendering {} ({}×{}, {})", args.scene.string(), options.width,
+                                  options.height, args.method));
     std::optional<mrt::ConeRenderStats> cone_stats;
     const auto render_start = Clock::now();
     mrt::RenderOutput out;
@@ -276,6 +285,7 @@ int run(const Arguments& args) {
                   << cone_stats->pixels << " pixels done; the rest of the image is black\n";
     }
 
+    mrt::set_activity("writing " + args.output.string());
     mrt::write_image(args.output, out.image);
 
     if (!args.stats.empty()) {
