@@ -1,6 +1,7 @@
 #include "common/hierarchy_file.h"
 
 #include "common/error.h"
+#include "common/invertibility.h"
 
 #include <fmt/format.h>
 
@@ -325,7 +326,9 @@ void check_objects(const std::filesystem::path& file, const HierarchyView& a) {
             finite = finite && std::isfinite(x);
         }
         const float det = instance.affine().linear().determinant();
-        if (!finite || !std::isnormal(det) ||
+        // Invertibility is decided scale-free, as the scene loader decides it: a scale of 1e13
+        // has a determinant beyond float's range and a perfectly representable inverse.
+        if (!finite || !invertible_in_single_precision(instance.affine().linear().cast<double>()) ||
             (instance.reserved[0] | instance.reserved[1] | instance.reserved[2]) != 0) {
             throw Error(file, where(kInstances, i),
                         fmt::format("transform with determinant {}: expected finite, "

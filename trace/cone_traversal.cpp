@@ -1,6 +1,7 @@
 #include "trace/cone_traversal.h"
 
 #include "common/footprint.h"
+#include "common/invertibility.h"
 #include "common/point_weight.h"
 #include "common/quantization.h"
 #include "trace/cone_bounds.h"
@@ -777,8 +778,10 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
     m_normal_to_group.reserve(m_view.instances.size());
     for (const HierarchyInstance& instance : m_view.instances) {
         const Affine3f to_group = instance.affine();
-        m_to_object.push_back(to_group.inverse());
-        m_normal_to_group.push_back(to_group.linear().inverse().transpose());
+        // In double: a scale of 1e13 has a determinant beyond float's range although its
+        // inverse is representable (common/invertibility.h).
+        m_to_object.push_back(inverse_in_double(to_group));
+        m_normal_to_group.push_back(inverse_in_double(Mat3f(to_group.linear())).transpose());
     }
     m_node_clusters.resize(m_view.nodes.size());
     m_point_order.reserve(m_view.core.size());
