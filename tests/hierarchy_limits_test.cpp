@@ -91,6 +91,53 @@ TEST(HierarchyLimits, ASphereStretchedTo1e30BuildsFiniteNodesThatCoverIt) {
                                                             h.objects[2].tree.nodes.size());
 }
 
+// A radius of 4294967297 is 2^32 in single precision: every coordinate, extent and area of the
+// unit sphere scaled by a power of two, exactly. Its octree is the unit sphere's, scaled.
+TEST(HierarchyLimits, ASphereOfRadius2To32BuildsTheUnitSphereScaled) {
+    const std::vector<Material> materials = {Material{}};
+    const PointOctree unit =
+        build_point_octree(make_sphere(1.0f, 64, 32, 0), materials, nullptr, {});
+    const PointOctree big =
+        build_point_octree(make_sphere(4294967297.0f, 64, 32, 0), materials, nullptr, {});
+    ASSERT_EQ(unit.nodes.size(), big.nodes.size());
+    constexpr float kScale = 4294967296.0f;
+    std::size_t points = 0;
+    for (std::size_t n = 0; n < unit.nodes.size(); ++n) {
+        const OctreeNode& a = unit.nodes[n];
+        const OctreeNode& b = big.nodes[n];
+        EXPECT_EQ(a.level, b.level);
+        EXPECT_EQ(a.triangles, b.triangles);
+        EXPECT_EQ(a.origin * kScale, b.origin);
+        EXPECT_EQ(a.side * kScale, b.side);
+        ASSERT_EQ(a.points.size(), b.points.size());
+        for (std::size_t i = 0; i < a.points.size(); ++i) {
+            EXPECT_EQ(a.points[i].voxel, b.points[i].voxel);
+            EXPECT_NEAR(a.points[i].coverage, b.points[i].coverage, 1e-6f);
+            EXPECT_NEAR(a.points[i].offset, b.points[i].offset, 1e-6f);
+            ++points;
+        }
+    }
+    EXPECT_GT(points, 1000u);
+}
+
+// Depth adapts to where the geometry is: two small triangles 1e30 apart make a root and two
+// leaves, not the 100 levels that separate their size from the extent.
+TEST(HierarchyLimits, DepthFollowsTheGeometryNotItsExtent) {
+    Mesh mesh;
+    mesh.name = "two specks";
+    mesh.positions = {{0, 0, 0},    {1, 0, 0}, {0, 1, 0}, {1e30f, 0, 0}, {1e30f + 1e24f, 0, 0},
+                      {1e30f, 1, 0}};
+    mesh.normals.assign(6, Vec3f::UnitZ());
+    mesh.triangles = {{0, 1, 2}, {3, 4, 5}};
+    mesh.materials = {0, 0};
+    PointOctreeOptions options;
+    options.budgets.octree_depth = 1;
+    const PointOctree octree = build_point_octree(mesh, {Material{}}, nullptr, options);
+    ASSERT_EQ(octree.nodes.size(), 3u);
+    EXPECT_EQ(octree.nodes[1].triangles.size() + octree.nodes[2].triangles.size(), 2u);
+    EXPECT_NEAR(octree.nodes[0].side, 1e30f, 1e27f);
+}
+
 TEST(HierarchyLimits, RefusesASphereWiderThanSinglePrecisionCubesHold) {
     const Scene scene = floor_and(make_sphere(3.4e38f, 16, 8, 0), Affine3f::Identity());
     EXPECT_EQ(refusal(scene),
