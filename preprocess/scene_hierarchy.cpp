@@ -214,7 +214,7 @@ std::uint64_t sample_key(const SceneHierarchy& h, const TriangleSource& source) 
 class SourcePlan {
   public:
     SourcePlan(const SceneHierarchy& h, const OctreeNode& node, const TriangleDensity& density)
-        : m_h(h), m_node(node), m_density(density), chosen(h.options.grid) {}
+        : chosen(h.options.grid), m_h(h), m_node(node), m_density(density) {}
 
     void visit() { ++visits; }
 
@@ -252,14 +252,12 @@ class SourcePlan {
     std::uint64_t requested = 0;  ///< Prefiltering samples asked for, points included.
     std::uint64_t drawn = 0;      ///< Representative-choosing samples drawn.
     std::uint64_t visits = 0;     ///< Nodes walked.
+    VoxelSet chosen;              ///< The voxels that get points.
 
   private:
     const SceneHierarchy& m_h;
     const OctreeNode& m_node;
     const TriangleDensity& m_density;
-
-  public:
-    VoxelSet chosen;
 };
 
 /// The second pass: the prefiltering samples, each source's count multiplied by `keep` (≤ 1),
