@@ -423,5 +423,34 @@ TEST(SceneHierarchy, ThinnedPilesStillCoverTheirSurfaceAndAverageExactly) {
     EXPECT_GE(checked, 3u);  // the root and one node per place
 }
 
+// Copies piled exactly on one another, thinned to a share of their samples each: every point
+// still gathers samples, and the coverages add up to all the copies' area (each kept sample
+// stands for its triangle's area over the samples kept).
+TEST(SceneHierarchy, ThinnedIdenticalCopiesKeepTheirAreaAndEveryPointItsSamples) {
+    constexpr int kCopies = 256;
+    const Scene scene = piled_spheres(1, kCopies);
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, false);
+    EXPECT_GT(h.work.thinned_nodes, 0u);
+    const OctreeNode& root = h.objects[h.world].tree.nodes[0];
+    ASSERT_FALSE(root.points.empty());
+    double coverage = 0.0;
+    std::size_t empty = 0;
+    for (const OctreePoint& p : root.points) {
+        coverage += static_cast<double>(p.coverage);
+        empty += p.coverage > 0.0f ? 0 : 1;
+    }
+    const Mesh& sphere = scene.meshes[0];
+    double area = 0.0;
+    for (const auto& t : sphere.triangles) {
+        area +=
+            0.5 * static_cast<double>((sphere.positions[t[1]] - sphere.positions[t[0]])
+                                          .cross(sphere.positions[t[2]] - sphere.positions[t[0]])
+                                          .norm());
+    }
+    const double voxel = static_cast<double>(root.side) / h.options.grid;
+    EXPECT_NEAR(coverage, kCopies * area / (voxel * voxel), 1e-3 * coverage);
+    EXPECT_EQ(empty, 0u) << "of " << root.points.size() << " points";
+}
+
 }  // namespace
 }  // namespace mrt
