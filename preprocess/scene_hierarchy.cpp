@@ -2,6 +2,7 @@
 
 #include "common/error.h"
 #include "common/progress.h"
+#include "common/random.h"
 #include "preprocess/build_budget.h"
 #include "preprocess/octree_layout.h"
 #include "preprocess/surface_prefilter.h"
@@ -64,6 +65,10 @@ struct TriangleSource {
     int level;  ///< Of the mesh node keeping it (with the object, its sample key).
     std::uint32_t object;
     const Affine3f& to_target;  ///< Object space → the group node's space.
+    /// The instance of the walk it was reached through, numbered in walk order: with the
+    /// object, the key of its samples, so that copies piled on one another sample different
+    /// places of their common surface (their thinned samples add up to a denser set).
+    std::uint64_t copy;
 };
 
 /// Representative points of a finer node below a group node, as its samples see them.
@@ -76,14 +81,15 @@ struct PointSource {
 /// need (spacing ≤ half its voxel): the points of the first nodes of each instance's trees
 /// whose voxel, stretched by the instance's transform, is at most the spacing, and the
 /// triangles the meshes keep above them. Calls visitor.triangle(TriangleSource) and
-/// visitor.points(PointSource) for each, in an order fixed by the trees.
+/// visitor.points(PointSource) for each, in an order fixed by the trees, visitor.visit() for
+/// every node and visitor.enter() for every instance (which numbers it).
 class SourceWalk {
   public:
     explicit SourceWalk(const SceneHierarchy& hierarchy) : m_hierarchy(hierarchy) {}
 
     template <class Visitor>
     void node(std::uint32_t o, std::size_t n, const Affine3f& to_target, float stretch,
-              float spacing, Visitor& visitor) const {
+              float spacing, std::uint64_t copy, Visitor& visitor) const {
         visitor.visit();
         const SceneObject& object = m_hierarchy.objects[o];
         const OctreeNode& node = object.tree.nodes[n];
@@ -92,7 +98,7 @@ class SourceWalk {
         if (object.kind == SceneObject::Kind::Mesh) {
             // A node's kept triangles are not among the triangles its points stand for.
             for (const std::uint32_t t : node.triangles) {
-                visitor.triangle(TriangleSource{*object.mesh, t, node.level, o, to_target});
+                visitor.triangle(TriangleSource{*object.mesh, t, node.level, o, to_target, copy});
             }
         }
         if (!node.points.empty() && voxel * stretch <= spacing) {
@@ -101,7 +107,8 @@ class SourceWalk {
         }
         for (const std::int32_t c : node.children) {
             if (c >= 0) {
-                this->node(o, static_cast<std::size_t>(c), to_target, stretch, spacing, visitor);
+                this->node(o, static_cast<std::size_t>(c), to_target, stretch, spacing, copy,
+                           visitor);
             }
         }
         for (const std::uint32_t i : node.instances) {
@@ -114,7 +121,7 @@ class SourceWalk {
                   Visitor& visitor) const {
         const Affine3f to_instance_target = to_target * instance.transform;
         node(instance.object, 0, to_instance_target, stretch_of(to_instance_target), spacing,
-             visitor);
+             visitor.enter(), visitor);
     }
 
     /// Everything below `node` of group object o's tree, in the node's space.
@@ -123,7 +130,7 @@ class SourceWalk {
         const Affine3f identity = Affine3f::Identity();
         for (const std::int32_t c : node.children) {
             if (c >= 0) {
-                this->node(o, static_cast<std::size_t>(c), identity, 1.0f, spacing, visitor);
+                this->node(o, static_cast<std::size_t>(c), identity, 1.0f, spacing, 0, visitor);
             }
         }
         for (const std::uint32_t i : node.instances) {
@@ -204,8 +211,9 @@ TriangleRequest request_of(const TriangleSource& source, const TriangleDensity& 
 }
 
 std::uint64_t sample_key(const SceneHierarchy& h, const TriangleSource& source) {
-    return triangle_sample_key(h.options.seed ^ (0x9e3779b97f4a7c15ull * (source.object + 1)),
-                               source.triangle, source.level + 64);
+    return triangle_sample_key(
+        h.options.seed ^ (0x9e3779b97f4a7c15ull * (source.object + 1)) ^ mix64(source.copy),
+        source.triangle, source.level + 64);
 }
 
 /// The first pass over a group node's sources: how many samples they ask for, and the voxels
@@ -217,6 +225,7 @@ class SourcePlan {
         : chosen(h.options.grid), m_h(h), m_node(node), m_density(density) {}
 
     void visit() { ++visits; }
+    std::uint64_t enter() { return ++m_copies; }
 
     void triangle(const TriangleSource& source) {
         const TriangleRequest r = request_of(source, m_density);
@@ -258,6 +267,7 @@ class SourcePlan {
     const SceneHierarchy& m_h;
     const OctreeNode& m_node;
     const TriangleDensity& m_density;
+    std::uint64_t m_copies = 0;
 };
 
 /// The second pass: the prefiltering samples, each source's count multiplied by `keep` (≤ 1),
@@ -276,6 +286,7 @@ class SourceSamples {
           m_chosen(chosen) {}
 
     void visit() {}
+    std::uint64_t enter() { return ++m_copies; }
 
     void triangle(const TriangleSource& source) {
         const std::size_t count = kept(request_of(source, m_density).dense);
@@ -372,6 +383,7 @@ class SourceSamples {
     const TriangleDensity& m_density;
     double m_keep;
     VoxelSet& m_chosen;
+    std::uint64_t m_copies = 0;
 };
 
 /// The work counters of HierarchyWork, added to from parallel nodes.
