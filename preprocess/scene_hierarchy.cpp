@@ -713,7 +713,7 @@ SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* t
         const auto o = static_cast<std::uint32_t>(h.objects.size());
         group_object[g] = o;
         h.objects.push_back(std::move(object));
-        // The collector reads the finished levels of this tree through the hierarchy.
+        // The source walk reads the finished levels of this tree through the hierarchy.
         builder.add_points(o, h.objects[o].tree, where);
         if (progress != nullptr) {
             progress->advance(scene.groups[g].children.size());
