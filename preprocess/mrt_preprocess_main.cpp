@@ -136,6 +136,7 @@ int main(int argc, char** argv) {
                  "One octree over every triangle in world space (instances expanded) instead of "
                  "one per unique mesh under instance trees");
     app.add_flag("-q,--quiet", args.quiet, "No summary");
+    mrt::add_budget_option(app, args.octree.budgets);
     return mrt::run_tool(app, argc, argv, [&] {
         std::optional<tbb::global_control> limit;
         if (args.threads > 0) {

@@ -3,6 +3,7 @@
 #include "common/error.h"
 #include "common/progress.h"
 #include "common/texture.h"
+#include "preprocess/build_budget.h"
 #include "preprocess/octree_layout.h"
 #include "preprocess/surface_prefilter.h"
 #include "preprocess/triangle_sampling.h"
@@ -23,32 +24,45 @@ namespace {
 /// voxel of a sample and within the voxel diagonal of that sample's voxel centre.
 constexpr float kRepresentativeDensity = 4.0f;
 
-/// The bounding cube of triangles `tris` of `mesh`.
-std::pair<Vec3f, float> bounding_cube(const Mesh& mesh, const std::vector<std::uint32_t>& tris) {
-    Eigen::AlignedBox3f box;
+/// The bounding box of triangles `tris` of `mesh`, in double.
+Eigen::AlignedBox3d triangle_box(const Mesh& mesh, const std::vector<std::uint32_t>& tris) {
+    Eigen::AlignedBox3d box;
     for (const std::uint32_t t : tris) {
         for (const std::uint32_t v : mesh.triangles[t]) {
-            box.extend(mesh.positions[v]);
+            box.extend(mesh.positions[v].cast<double>());
         }
     }
-    return mrt::bounding_cube(box);
+    return box;
 }
 
-float triangle_area(const Mesh& mesh, std::uint32_t t) {
+/// The bounding cube of triangles `tris` of `mesh`.
+std::pair<Vec3f, float> bounding_cube(const Mesh& mesh, const std::vector<std::uint32_t>& tris) {
+    return mrt::bounding_cube(triangle_box(mesh, tris));
+}
+
+double triangle_area(const Mesh& mesh, std::uint32_t t) {
     const auto& tri = mesh.triangles[t];
-    const Vec3f e1 = mesh.positions[tri[1]] - mesh.positions[tri[0]];
-    const Vec3f e2 = mesh.positions[tri[2]] - mesh.positions[tri[0]];
-    return 0.5f * e1.cross(e2).norm();
+    return mrt::triangle_area(mesh.positions[tri[0]], mesh.positions[tri[1]],
+                              mesh.positions[tri[2]]);
+}
+
+double longest_edge(const Mesh& mesh, std::uint32_t t) {
+    const auto& tri = mesh.triangles[t];
+    return mrt::longest_edge(mesh.positions[tri[0]], mesh.positions[tri[1]],
+                             mesh.positions[tri[2]]);
 }
 
 class Builder {
   public:
     Builder(const Mesh& mesh, const std::vector<Material>& materials,
-            const TextureSampler* textures, const PointOctreeOptions& options, Progress* progress)
+            const TextureSampler* textures, const PointOctreeOptions& options, BuildBudget& budget,
+            Progress* progress)
         : m_mesh(mesh),
           m_materials(materials),
           m_textures(textures),
           m_options(options),
+          m_budget(budget),
+          m_where("mesh '" + mesh.name + "'"),
           m_progress(progress) {}
 
     std::unique_ptr<OctreeBuildNode> build(std::vector<std::uint32_t> tris, int level) const {
@@ -58,6 +72,7 @@ class Builder {
         std::tie(node.origin, node.side) = bounding_cube(m_mesh, tris);
         const int k = m_options.grid;
         const float voxel = node.side / static_cast<float>(k);
+        const double voxel_d = static_cast<double>(node.side) / k;
 
         // Which triangles are large at this resolution (kept here) and which go down.
         std::vector<std::uint32_t> sample_counts(tris.size(), 0);
@@ -66,16 +81,11 @@ class Builder {
         tbb::parallel_for(std::size_t{0}, tris.size(), [&](std::size_t i) {
             const std::uint32_t t = tris[i];
             // Enough samples for the area, and for a sliver's length: one per half voxel.
-            const auto& tri = m_mesh.triangles[t];
-            const float longest =
-                std::max({(m_mesh.positions[tri[1]] - m_mesh.positions[tri[0]]).norm(),
-                          (m_mesh.positions[tri[2]] - m_mesh.positions[tri[1]]).norm(),
-                          (m_mesh.positions[tri[0]] - m_mesh.positions[tri[2]]).norm()});
-            const float density =
-                std::max(kRepresentativeDensity * triangle_area(m_mesh, t) / (voxel * voxel),
-                         2.0f * longest / voxel);
+            const double density =
+                std::max(kRepresentativeDensity * triangle_area(m_mesh, t) / (voxel_d * voxel_d),
+                         2.0 * longest_edge(m_mesh, t) / voxel_d);
             const auto count = static_cast<std::uint32_t>(
-                std::clamp(std::ceil(density), 1.0f, static_cast<float>(1u << 30)));
+                std::clamp(std::ceil(density), 1.0, static_cast<double>(1u << 30)));
             sample_counts[i] = count;
             if (level >= m_options.max_depth) {
                 keep[i] = 1;
@@ -126,6 +136,10 @@ class Builder {
         if (m_progress != nullptr) {
             m_progress->advance(node.triangles.size());
         }
+        if (std::any_of(octants.begin(), octants.end(),
+                        [](const auto& octant) { return !octant.empty(); })) {
+            m_budget.check_level(level + 1, m_where);
+        }
 
         tbb::parallel_for(0, 8, [&](int c) {
             auto& octant = octants[static_cast<std::size_t>(c)];
@@ -151,8 +165,7 @@ class Builder {
                 node.bounds.extend(child->node.bounds);
             }
         }
-        node.sphere_centre = node.bounds.center();
-        node.sphere_radius = 0.5f * node.bounds.sizes().norm();
+        set_bounding_sphere(node);
         return result;
     }
 
@@ -194,22 +207,32 @@ class Builder {
         }
         // The paper's oversampling factor c multiplies a minimum density of one sample per
         // voxel face area; every triangle gets at least its representative-choosing samples.
-        const float voxel = node.side / static_cast<float>(m_options.grid);
-        const auto oversampling = static_cast<float>(std::max(1, m_options.oversampling));
+        const double voxel = static_cast<double>(node.side) / m_options.grid;
+        const auto oversampling = static_cast<double>(std::max(1, m_options.oversampling));
         std::vector<std::size_t> offsets(tris.size() + 1, 0);
         for (std::size_t i = 0; i < tris.size(); ++i) {
-            const float dense =
+            // A passed triangle meets at most max_representatives voxels, so this is a few
+            // hundred samples at most.
+            const double dense =
                 std::ceil(oversampling * triangle_area(m_mesh, tris[i]) / (voxel * voxel));
             offsets[i + 1] = offsets[i] + std::max(static_cast<std::size_t>(counts[i]),
-                                                   static_cast<std::size_t>(std::min(dense, 1e9f)));
+                                                   static_cast<std::size_t>(std::min(dense, 1e9)));
+        }
+        {
+            std::vector<std::uint32_t> distinct = chosen;
+            std::sort(distinct.begin(), distinct.end());
+            m_budget.add_points(
+                static_cast<std::uint64_t>(std::unique(distinct.begin(), distinct.end()) -
+                                           distinct.begin()),
+                m_where);
         }
         std::vector<SurfaceSample> samples(offsets.back());
         tbb::parallel_for(std::size_t{0}, tris.size(), [&](std::size_t i) {
             const std::span<SurfaceSample> out(samples.data() + offsets[i],
                                                offsets[i + 1] - offsets[i]);
             triangle_samples(m_mesh, m_materials, m_textures, tris[i],
-                             triangle_sample_key(m_options.seed, tris[i], level), nullptr, out,
-                             m_options.sampling);
+                             triangle_sample_key(m_options.seed, tris[i], level), nullptr,
+                             voxel * voxel, out, m_options.sampling);
             for (SurfaceSample& s : out) {
                 s.voxel = voxel_index(node, m_options.grid, s.position);
             }
@@ -221,6 +244,8 @@ class Builder {
     const std::vector<Material>& m_materials;
     const TextureSampler* m_textures;
     PointOctreeOptions m_options;
+    BuildBudget& m_budget;
+    std::string m_where;  ///< The mesh, for refusals.
     Progress* m_progress;
 };
 
@@ -229,6 +254,13 @@ class Builder {
 PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& materials,
                                const TextureSampler* textures, const PointOctreeOptions& options,
                                Progress* progress) {
+    BuildBudget budget(options.budgets, mesh.name);
+    return build_point_octree(mesh, materials, textures, options, budget, progress);
+}
+
+PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& materials,
+                               const TextureSampler* textures, const PointOctreeOptions& options,
+                               BuildBudget& budget, Progress* progress) {
     if (options.grid < 1 || options.grid > 256) {
         throw Error("point octree: grid must be in [1, 256] (8-bit voxel indices), found " +
                     std::to_string(options.grid));
@@ -243,7 +275,12 @@ PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& ma
     }
     std::vector<std::uint32_t> all(mesh.triangles.size());
     std::iota(all.begin(), all.end(), 0u);
-    const Builder builder(mesh, materials, textures, options, progress);
+    // Every node's cube lies within the root's: checking the root's is enough.
+    const Eigen::AlignedBox3d box = triangle_box(mesh, all);
+    if (!cube_fits(box)) {
+        throw Error(budget.file(), "mesh '" + mesh.name + "'", cube_overflow(box));
+    }
+    const Builder builder(mesh, materials, textures, options, budget, progress);
     std::unique_ptr<OctreeBuildNode> root = builder.build(std::move(all), 0);
 
     octree.nodes = breadth_first(std::move(root));

@@ -13,6 +13,7 @@
 // averaged over its Gaussian), normals, and the normal gradient fitted to the samples' normals
 // (preprocess/normal_gradient.h).
 
+#include "common/budgets.h"
 #include "common/math.h"
 #include "common/mesh.h"
 #include "common/scene.h"
@@ -24,6 +25,7 @@
 
 namespace mrt {
 
+class BuildBudget;
 class Progress;
 class TextureSampler;
 
@@ -39,6 +41,9 @@ struct PointOctreeOptions {
     TriangleSampling sampling = TriangleSampling::LowDiscrepancy;
     std::uint64_t seed = 0;  ///< Seed of the sample sequences.
     int max_depth = 40;      ///< Below this every remaining triangle is kept.
+    /// Limits on the build: Budgets::octree_depth (levels below any tree's root) and
+    /// Budgets::points (over all of a scene's trees); a build that would pass one is refused.
+    Budgets budgets;
 };
 
 /// A representative point with its prefiltered attributes (before quantization).
@@ -97,8 +102,15 @@ struct PointOctree {
 /// `materials`). `textures` may be null when no material has a texture. Deterministic for the
 /// options' seed whatever the number of threads. `progress`, if given, advances by one per
 /// triangle as it comes to rest in a node (its total should be the triangle count).
+/// Refusals (geometry beyond single-precision cubes, options.budgets) name the mesh.
 PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& materials,
                                const TextureSampler* textures, const PointOctreeOptions& options,
                                Progress* progress = nullptr);
+
+/// As above, as one of a scene's trees: its points count against `budget`'s total, and
+/// refusals name `budget`'s scene file and the mesh.
+PointOctree build_point_octree(const Mesh& mesh, const std::vector<Material>& materials,
+                               const TextureSampler* textures, const PointOctreeOptions& options,
+                               BuildBudget& budget, Progress* progress = nullptr);
 
 }  // namespace mrt

@@ -8,11 +8,16 @@
 // A group node's points are prefiltered like a mesh node's (preprocess/surface_prefilter.h),
 // from the finer representations below it, mapped into the group's space: the points of the
 // first nodes of each instance's trees whose spacing is at most half this node's (with the
-// triangles kept above them, sampled densely). With that spacing every surface point is within
-// the finer voxel diagonal of a finer representative, and that one within half this node's
-// diagonal of this node's: within this node's diagonal, the guarantee of the mesh octrees.
-// Their attributes are already prefiltered over at most half a voxel, so the node's filter is
-// √(1 + ¼) ≈ 1.12 voxels wide at most instead of one.
+// triangles kept above them, sampled at c per voxel face). With that spacing every surface
+// point is within the finer voxel diagonal of a finer representative, and that one within half
+// this node's diagonal of this node's: within this node's diagonal, the guarantee of the mesh
+// octrees. Their attributes are already prefiltered over at most half a voxel, so the node's
+// filter is √(1 + ¼) ≈ 1.12 voxels wide at most instead of one.
+//
+// The build's work grows linearly with the instances: only nodes well inside their nearest
+// ancestor with points make points (halves of a pile of instances share its cube, and their
+// points would be as coarse), and a node whose samples would be many layers of surface deep
+// (piled instances) thins them to what its voxels need. HierarchyWork counts that work.
 
 #include "common/math.h"
 #include "common/mesh.h"
@@ -43,16 +48,30 @@ struct SceneObject {
     PointOctree tree;
 };
 
+/// What building the instance trees' points cost, in units that do not depend on the machine
+/// or the thread count: the scale of the build's work, for tests and benchmarks.
+struct HierarchyWork {
+    /// Samples the instance trees' nodes drew: representative-choosing positions, prefiltering
+    /// samples and finer points taken as samples.
+    std::uint64_t samples = 0;
+    std::uint64_t visits = 0;         ///< Nodes of the trees below them walked through.
+    std::uint64_t point_nodes = 0;    ///< Instance-tree nodes that made points.
+    std::uint64_t thinned_nodes = 0;  ///< Of those, nodes whose samples were thinned.
+};
+
 struct SceneHierarchy {
     PointOctreeOptions options;
     std::vector<SceneObject> objects;  ///< Every object after the objects it instances.
     std::vector<SceneInstance> instances;
     std::uint32_t world = 0;                ///< The object that is the scene.
     std::unique_ptr<const Mesh> flattened;  ///< The world's one mesh in a flattened build.
+    HierarchyWork work;                     ///< What the instance trees' points cost.
 };
 
 /// Builds the hierarchy of `scene`'s world. With `flatten`, one octree over every triangle in
 /// world space instead (instances expanded). `textures` may be null when nothing is textured.
+/// Refuses (mrt::Error naming scene.file and the mesh or group) geometry beyond what single-
+/// precision node cubes hold and builds over options.budgets (points, octree depth).
 /// Deterministic for the options' seed whatever the number of threads; `progress` advances by
 /// one per triangle coming to rest in a mesh octree and by a group's instances when its
 /// instance tree has its points (its total: hierarchy_progress_total).

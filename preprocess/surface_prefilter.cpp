@@ -54,9 +54,20 @@ std::uint32_t voxel_index(const OctreeNode& node, int grid, const Vec3f& p) {
     return index;  // x fastest
 }
 
+double triangle_area(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+    const Vec3d e1 = (b - a).cast<double>();
+    const Vec3d e2 = (c - a).cast<double>();
+    return 0.5 * e1.cross(e2).norm();
+}
+
+double longest_edge(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+    const Vec3d pa = a.cast<double>(), pb = b.cast<double>(), pc = c.cast<double>();
+    return std::max({(pb - pa).norm(), (pc - pb).norm(), (pa - pc).norm()});
+}
+
 void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
                       const TextureSampler* textures, std::uint32_t t, std::uint64_t key,
-                      const Affine3f* to_node, std::span<SurfaceSample> out,
+                      const Affine3f* to_node, double voxel_face, std::span<SurfaceSample> out,
                       TriangleSampling scheme) {
     const auto& tri = mesh.triangles[t];
     std::array<Vec3f, 3> p{mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
@@ -68,8 +79,9 @@ void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
             n[i] = normal_matrix * n[i];
         }
     }
-    const float area = 0.5f * (p[1] - p[0]).cross(p[2] - p[0]).norm();
-    const float share = area / static_cast<float>(std::max<std::size_t>(out.size(), 1));
+    const auto share =
+        static_cast<float>(triangle_area(p[0], p[1], p[2]) / voxel_face /
+                           static_cast<double>(std::max<std::size_t>(out.size(), 1)));
     const Material& material = materials[mesh.materials[t]];
     const bool textured = textures != nullptr && material.texture >= 0 && mesh.has_uvs();
     const double log_phong = std::log(std::max(material.phong_exponent, 1e-3f));
@@ -116,9 +128,14 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
 
     std::vector<OctreePoint> points(chosen.size());
     const int k = grid;
+    // Distances in voxel sides (σ): a squared distance in scene units overflows single
+    // precision for nodes wider than about 1e19.
     const float sigma = node.side / static_cast<float>(grid);
-    const float inverse_two_sigma_squared = 0.5f / (sigma * sigma);
-    const float cut = (static_cast<float>(kGatherRadius) + 0.5f) * sigma;
+    const float inverse_sigma = 1.0f / sigma;
+    constexpr float kCut = static_cast<float>(kGatherRadius) + 0.5f;
+    const auto in_sigmas = [&](const Vec3f& p, const Vec3f& centre) {
+        return ((p - centre) * inverse_sigma).squaredNorm();
+    };
 
     // Coverage is each point's share of the samples' area: a sample's area is split among
     // the points whose Gaussians reach it, in proportion to their weights, so the points'
@@ -145,9 +162,9 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
             const SurfaceSample& s = samples[order[i]];
             double total = 0.0;
             for (const Vec3f& c : near) {
-                const float d2 = (s.position - c).squaredNorm();
-                if (d2 <= cut * cut) {
-                    total += std::exp(-d2 * inverse_two_sigma_squared);
+                const float d2 = in_sigmas(s.position, c);
+                if (d2 <= kCut * kCut) {
+                    total += std::exp(-0.5f * d2);
                 }
             }
             total_weight[order[i]] = total;
@@ -169,13 +186,13 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
             for (auto it = range.first; it != range.second; ++it) {
                 const SurfaceSample& s =
                     samples[order[static_cast<std::size_t>(it - sorted_voxels.begin())]];
-                const float d2 = (s.position - centre).squaredNorm();
-                if (d2 > cut * cut) {
+                const float d2 = in_sigmas(s.position, centre);
+                if (d2 > kCut * kCut) {
                     continue;
                 }
                 const std::uint32_t index =
                     order[static_cast<std::size_t>(it - sorted_voxels.begin())];
-                const double gauss = std::exp(-d2 * inverse_two_sigma_squared);
+                const double gauss = std::exp(-0.5f * d2);
                 const double w = gauss * s.area;
                 weight_sum += w;
                 area_share += w / total_weight[index];
@@ -199,7 +216,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         for (const NormalSample& n : neighbours) {
             along += static_cast<double>(n.weight) * (n.position - centre).dot(fit.normal);
         }
-        point.offset = static_cast<float>(along * inv / sigma);
+        point.offset = static_cast<float>(along * inv / static_cast<double>(sigma));
         point.gradient = fit.gradient;
         point.gradient_fitted = fit.fitted;
         point.diffuse = (diffuse * inv).cast<float>().array();
@@ -209,7 +226,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         point.transparency = static_cast<float>(transparency * inv);
         point.roughness = static_cast<float>(roughness * inv);
         point.ior = static_cast<float>(ior * inv);
-        point.coverage = static_cast<float>(area_share / (static_cast<double>(sigma) * sigma));
+        point.coverage = static_cast<float>(area_share);  // the samples' areas are in voxel faces
     });
     return points;
 }

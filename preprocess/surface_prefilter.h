@@ -29,7 +29,9 @@ struct SurfaceSample {
     float transparency = 0.0f;
     float roughness = 0.0f;
     float ior = 1.0f;
-    float area = 0.0f;        ///< Surface area the sample stands for.
+    /// Surface area the sample stands for, in voxel faces ((side/k)²) of the node gathering it:
+    /// dimensionless, so that neither a node of side 1e30 nor one of 1e-30 over- or underflows.
+    float area = 0.0f;
     std::uint32_t voxel = 0;  ///< Linear voxel index (x fastest) in the node's grid.
 };
 
@@ -37,17 +39,25 @@ struct SurfaceSample {
 std::uint32_t voxel_index(const OctreeNode& node, int grid, const Vec3f& p);
 
 /// Fills `out` with the first out.size() samples of the sequence `key` of `scheme` on triangle t
-/// of `mesh`, each standing for an equal share of its area, placed by `to_node` (object → node
-/// space; null is the identity). `textures` may be null when no material is textured. Voxels
-/// are left for the caller.
+/// of `mesh`, each standing for an equal share of its area in units of `voxel_face` (node
+/// space), placed by `to_node` (object → node space; null is the identity). `textures` may be
+/// null when no material is textured. Voxels are left for the caller.
 void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
                       const TextureSampler* textures, std::uint32_t t, std::uint64_t key,
-                      const Affine3f* to_node, std::span<SurfaceSample> out,
+                      const Affine3f* to_node, double voxel_face, std::span<SurfaceSample> out,
                       TriangleSampling scheme);
+
+/// The area of the triangle (a, b, c), in double: its edges' cross product overflows single
+/// precision from coordinates of about 1e19 on.
+double triangle_area(const Vec3f& a, const Vec3f& b, const Vec3f& c);
+
+/// The longest edge of the triangle (a, b, c), in double.
+double longest_edge(const Vec3f& a, const Vec3f& b, const Vec3f& c);
 
 /// The node's points: one at the centre of every voxel in `chosen` (linear indices, repeats
 /// allowed), its attributes the Gaussian-weighted averages of `samples` (whose `voxel` fields
 /// must be set) and its coverage the gathered area relative to a plane through the centre.
+/// Distances are measured in voxel sides, so any finite node side works.
 std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
                                           const std::vector<SurfaceSample>& samples,
                                           std::vector<std::uint32_t> chosen);

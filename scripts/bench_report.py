@@ -166,6 +166,9 @@ def main():
     if glob.glob(os.path.join(work, "preprocess-*.json")):
         report["preprocessing"] = preprocessing(work)
         report["paper_preprocessing"] = PAPER_PREPROCESSING
+    if os.path.isfile(os.path.join(work, "instances.json")):
+        with open(os.path.join(work, "instances.json")) as f:
+            report["preprocessing_against_instances"] = json.load(f)
     text = json.dumps(report, indent=2)
     print(text)
     if len(sys.argv) > 2 and sys.argv[2]:

@@ -16,6 +16,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <string>
+#include <vector>
 
 namespace mrt {
 namespace {
@@ -136,6 +138,30 @@ TEST(MrtPreprocess, WritesAFileTheReaderAcceptsAndRefusesBadInput) {
     EXPECT_NE(
         std::system((exe + " " + scene + " -o " + out.string() + " --grid 0 2>/dev/null").c_str()),
         0);
+}
+
+TEST(MrtPreprocess, RefusesAScenePastItsPointBudgetInOneLineNamingTheFile) {
+    const testing::ScratchDirectory scratch("mrt_hierarchy_pack_test");
+    const fs::path out = scratch.path() / "two-spheres.mrh";
+    const fs::path log = scratch.path() / "log.txt";
+    const std::string scene = std::string(MRT_SOURCE_DIR) + "/data/scenes/two-spheres.json";
+    const int status = std::system((std::string(MRT_PREPROCESS_EXE) + " " + scene + " -o " +
+                                    out.string() + " --budget points=100 2>" + log.string())
+                                       .c_str());
+    EXPECT_NE(status, 0);
+    EXPECT_FALSE(fs::exists(out));
+    std::ifstream in(log);
+    std::string line;
+    std::vector<std::string> lines;
+    while (std::getline(in, line)) {
+        lines.push_back(line);
+    }
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_EQ(lines[0].rfind("mrt-preprocess: " + scene + ": mesh '", 0), 0u) << lines[0];
+    EXPECT_NE(lines[0].find("representative points (counted so far), over the limit of 100 "
+                            "(raise it with --budget points=N)"),
+              std::string::npos)
+        << lines[0];
 }
 
 }  // namespace

@@ -336,5 +336,121 @@ TEST(SceneHierarchy, StoresUniqueGeometryOnce) {
     EXPECT_LT(instanced.core.size() * 4, flat.core.size());
 }
 
+/// One 8-triangle sphere instanced `copies` times at each of `places` places 3 apart along x
+/// (radius 1: the places do not overlap, the copies at one place coincide).
+Scene piled_spheres(int places, int copies) {
+    Scene scene;
+    scene.materials = {Material{}};
+    scene.meshes = {make_sphere(1.0f, 4, 2, 0)};
+    Group world;
+    world.name = "world";
+    for (int p = 0; p < places; ++p) {
+        for (int c = 0; c < copies; ++c) {
+            Instance sphere;
+            sphere.kind = Instance::Kind::Mesh;
+            sphere.index = 0;
+            sphere.transform = Eigen::Translation3f(3.0f * static_cast<float>(p), 0.0f, 0.0f);
+            world.children.push_back(sphere);
+        }
+    }
+    scene.groups = {world};
+    return scene;
+}
+
+HierarchyWork work_of(const Scene& scene) {
+    PointOctreeOptions options;
+    options.oversampling = 16;  // the work's growth, not its amount, is checked
+    return build_scene_hierarchy(scene, nullptr, options, false).work;
+}
+
+// Overlapping instances made every level of the instance tree (halves of the pile, all the
+// same cube) re-sample every instance below it: N log N samples, and N instances' samples held
+// at once in the root. Eight times the instances may cost at most about eight times the work.
+TEST(SceneHierarchy, WorkGrowsLinearlyWithOverlappingInstances) {
+    for (const int places : {1, 8}) {
+        const HierarchyWork few = work_of(piled_spheres(places, 16));
+        const HierarchyWork many = work_of(piled_spheres(places, 128));
+        ASSERT_GT(few.samples, 0u);
+        EXPECT_LE(static_cast<double>(many.samples), 8.0 * 1.1 * static_cast<double>(few.samples))
+            << places << " places: " << few.samples << " → " << many.samples << " samples";
+        EXPECT_LE(static_cast<double>(many.visits), 8.0 * 1.1 * static_cast<double>(few.visits))
+            << places << " places: " << few.visits << " → " << many.visits << " nodes walked";
+        // A pile's halves share its cube: only the pile's node makes points, however high.
+        EXPECT_EQ(many.point_nodes, few.point_nodes) << places << " places";
+    }
+}
+
+TEST(SceneHierarchy, WorkGrowsLinearlyWithSeparateInstances) {
+    const HierarchyWork few = work_of(piled_spheres(16, 1));
+    const HierarchyWork many = work_of(piled_spheres(128, 1));
+    ASSERT_GT(few.samples, 0u);
+    EXPECT_LE(static_cast<double>(many.samples), 8.0 * 1.25 * static_cast<double>(few.samples))
+        << few.samples << " → " << many.samples << " samples";
+    EXPECT_EQ(few.thinned_nodes, 0u);  // separate instances are one layer of surface
+}
+
+// Piled instances keep covering their surface: the thinned samples still choose a point for
+// every voxel the instances pass through, and prefilter a uniform material exactly.
+TEST(SceneHierarchy, ThinnedPilesStillCoverTheirSurfaceAndAverageExactly) {
+    Scene scene = piled_spheres(2, 64);
+    // Each copy turned differently, so the copies do not coincide.
+    for (std::size_t i = 0; i < scene.groups[0].children.size(); ++i) {
+        Affine3f& m = scene.groups[0].children[i].transform;
+        m = m *
+            Eigen::AngleAxisf(0.1f * static_cast<float>(i), Vec3f(1.0f, 2.0f, 3.0f).normalized());
+    }
+    scene.materials[0].diffuse = Rgb(0.3f, 0.5f, 0.7f);
+    PointOctreeOptions options;
+    options.oversampling = 16;
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, options, false);
+    EXPECT_GT(h.work.thinned_nodes, 0u);
+    const SceneObject& world = h.objects[h.world];
+    std::mt19937_64 rng(9);
+    std::size_t checked = 0;
+    for (std::size_t n = 0; n < world.tree.nodes.size(); ++n) {
+        const OctreeNode& node = world.tree.nodes[n];
+        if (node.points.empty()) {
+            continue;
+        }
+        std::vector<Vec3f> surface;
+        surface_below(h, h.world, n, Affine3f::Identity(), rng, surface);
+        EXPECT_LE(worst_coverage(node, h.options.grid, surface), 1.0) << "node " << n;
+        for (const OctreePoint& p : node.points) {
+            EXPECT_NEAR(p.diffuse.y(), 0.5f, 1e-5f);
+        }
+        ++checked;
+    }
+    EXPECT_GE(checked, 3u);  // the root and one node per place
+}
+
+// Copies piled exactly on one another, thinned to a share of their samples each: every point
+// still gathers samples, and the coverages add up to all the copies' area (each kept sample
+// stands for its triangle's area over the samples kept).
+TEST(SceneHierarchy, ThinnedIdenticalCopiesKeepTheirAreaAndEveryPointItsSamples) {
+    constexpr int kCopies = 256;
+    const Scene scene = piled_spheres(1, kCopies);
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, false);
+    EXPECT_GT(h.work.thinned_nodes, 0u);
+    const OctreeNode& root = h.objects[h.world].tree.nodes[0];
+    ASSERT_FALSE(root.points.empty());
+    double coverage = 0.0;
+    std::size_t empty = 0;
+    for (const OctreePoint& p : root.points) {
+        coverage += static_cast<double>(p.coverage);
+        empty += p.coverage > 0.0f ? 0 : 1;
+    }
+    const Mesh& sphere = scene.meshes[0];
+    double area = 0.0;
+    for (const auto& t : sphere.triangles) {
+        area +=
+            0.5 * static_cast<double>((sphere.positions[t[1]] - sphere.positions[t[0]])
+                                          .cross(sphere.positions[t[2]] - sphere.positions[t[0]])
+                                          .norm());
+    }
+    const double voxel = static_cast<double>(root.side) / h.options.grid;
+    EXPECT_NEAR(coverage, kCopies * area / (voxel * voxel), 1e-3 * coverage);
+    EXPECT_EQ(empty, 0u) << "of " << root.points.size() << " points";
+}
+
 }  // namespace
 }  // namespace mrt
