@@ -5,6 +5,7 @@
 #include "common/hierarchy_scene.h"
 #include "common/invertibility.h"
 #include "common/mesh_io.h"
+#include "common/object_scale.h"
 #include "common/procedural.h"
 #include "common/scene_json.h"
 #include "common/section_file.h"
@@ -304,6 +305,7 @@ class SceneBuilder {
         read_groups(top.optional("groups"), top.required("objects"));
         check_group_cycles();
         load_mesh_files();
+        normalize_object_scales(m_scene);
         return std::move(m_scene);
     }
 

@@ -1,6 +1,7 @@
 #include "preprocess/scene_hierarchy.h"
 
 #include "common/error.h"
+#include "common/invertibility.h"
 #include "common/progress.h"
 #include "common/random.h"
 #include "preprocess/build_budget.h"
@@ -306,7 +307,7 @@ class SourceSamples {
         const int k = m_h.options.grid;
         const float voxel = node.side / static_cast<float>(k);
         const Mat3f linear = source.to_target.linear();
-        const Mat3f normal_matrix = linear.inverse().transpose();
+        const Mat3f normal_matrix = inverse_in_double(linear).transpose();
         // Area maps by |det L|·|L⁻ᵀn| for a unit normal n; from the node's voxel faces to
         // this node's. In double: the factors over- or underflow single precision apart.
         const double scale = std::abs(linear.cast<double>().determinant()) *

@@ -1,5 +1,6 @@
 #include "preprocess/surface_prefilter.h"
 
+#include "common/invertibility.h"
 #include "common/texture.h"
 #include "preprocess/normal_gradient.h"
 #include "preprocess/triangle_sampling.h"
@@ -73,7 +74,7 @@ void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
     std::array<Vec3f, 3> p{mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
     std::array<Vec3f, 3> n{mesh.normals[tri[0]], mesh.normals[tri[1]], mesh.normals[tri[2]]};
     if (to_node != nullptr) {
-        const Mat3f normal_matrix = to_node->linear().inverse().transpose();
+        const Mat3f normal_matrix = inverse_in_double(Mat3f(to_node->linear())).transpose();
         for (int i = 0; i < 3; ++i) {
             p[i] = *to_node * p[i];
             n[i] = normal_matrix * n[i];

@@ -208,23 +208,37 @@ std::string scaled_sphere_json(const std::string& radius, const std::string& sca
 }
 
 TEST(ExtremeScale, UniformScalesOf1e13And1e18RenderAsTheUnitObject) {
-    // The determinant of each scale leaves the float range; the inverses the tracers take (in
-    // double) are ordinary floats, so whitted and distributed see the unit sphere. (A sphere of
-    // radius 1e-30 scaled by 1e30 is accepted too, but the float triangle test cannot intersect
-    // object-space coordinates of 1e-30: the products it forms underflow.)
+    // The determinant of each scale leaves the float range; the inverses every method takes (in
+    // double) are ordinary floats, so each sees the unit sphere: whitted and distributed over
+    // the BVH, cone and cone-classic over a hierarchy whose instance the reader accepts and
+    // whose points were prefiltered through the same inverse. The object spaces themselves are
+    // brought to magnitude 1 by a power of two (common/object_scale.h): a triangle test of
+    // 1e-30 coordinates underflows, and a cone's footprint matrix at 1e13 overflows.
     const auto render = [](const std::string& json) {
         const Scene scene = parse_scene(json, "scaled.json");
+        const TextureSampler textures(scene, TextureFilter::Anisotropic);
         const SceneBvh bvh(scene);
         RenderOptions options = render_options(2);
         options.width = options.height = 48;
+        RenderOptions cone_options = render_options(1);
+        cone_options.width = cone_options.height = 48;
+        const SceneHierarchy hierarchy =
+            build_scene_hierarchy(scene, nullptr, PointOctreeOptions{}, false);
+        const HierarchyData data = pack_hierarchy(hierarchy, scene.materials, "{}", "{}");
+        const ConeGeometry geometry(data.view(), scene, textures);
+        ConeOptions classic;
+        classic.traversal.points = false;
         return std::array{render_whitted(scene, bvh, options).image,
-                          render_distributed(scene, bvh, options).image};
+                          render_distributed(scene, bvh, options).image,
+                          render_cone(geometry, cone_options, ConeOptions{}).render.image,
+                          render_cone(geometry, cone_options, classic).render.image};
     };
     const auto unit = render(scaled_sphere_json("1", "1"));
     for (const auto& [radius, scale] :
-         {std::pair{"1e-13", "1e13"}, std::pair{"1e13", "1e-13"}, std::pair{"1e-18", "1e18"}}) {
+         {std::pair{"1e-13", "1e13"}, std::pair{"1e13", "1e-13"}, std::pair{"1e-18", "1e18"},
+          std::pair{"1e-30", "1e30"}, std::pair{"1e30", "1e-30"}}) {
         const auto scaled = render(scaled_sphere_json(radius, scale));
-        for (std::size_t m = 0; m < 2; ++m) {
+        for (std::size_t m = 0; m < unit.size(); ++m) {
             const double error = rmse(scaled[m], unit[m]);
             std::printf("  radius %s scaled by %s, %s: RMSE %.3g\n", radius, scale,
                         MethodImages::kNames[m], error);
