@@ -10,6 +10,7 @@
 // Textures are written by their resolved absolute paths, which the loader resolves to
 // themselves; the files must still exist when the record is loaded.
 
+#include "common/budgets.h"
 #include "common/scene.h"
 
 #include <filesystem>
@@ -30,7 +31,8 @@ std::string scene_record_json(const Scene& scene);
 /// The Scene of a record, through parse_scene as if the text were the file `file` (the path of
 /// the hierarchy file, named by every error with the JSON pointer of the offending value). It
 /// has no meshes and one empty group, the world, as a scene file with "objects": [] has. A record
-/// with geometry in it is refused.
-Scene load_scene_record(const std::string& json_text, const std::filesystem::path& file);
+/// with geometry in it is refused, and so is a camera over the `pixels` budget.
+Scene load_scene_record(const std::string& json_text, const std::filesystem::path& file,
+                        const Budgets& budgets = {});
 
 }  // namespace mrt
