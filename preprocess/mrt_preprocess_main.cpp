@@ -41,6 +41,7 @@ struct Arguments {
     int threads = 0;
     bool flatten = false;
     bool quiet = false;
+    mrt::Budgets budgets;
 };
 
 int run(const Arguments& args) {
@@ -51,6 +52,7 @@ int run(const Arguments& args) {
             std::cerr << "mrt-preprocess: warning: " << message << '\n';
         }
     };
+    load_options.budgets = args.budgets;
     const mrt::Scene scene = mrt::load_scene(args.scene, load_options);
     const std::string scene_record = mrt::scene_record_json(scene);
     const std::unique_ptr<mrt::TextureSampler> textures =
@@ -131,6 +133,7 @@ int main(int argc, char** argv) {
                  "One octree over every triangle in world space (instances expanded) instead of "
                  "one per unique mesh under instance trees");
     app.add_flag("-q,--quiet", args.quiet, "No summary");
+    mrt::add_budget_option(app, args.budgets);
     return mrt::run_tool(app, argc, argv, [&] {
         std::optional<tbb::global_control> limit;
         if (args.threads > 0) {

@@ -63,6 +63,7 @@ struct Arguments {
     bool node_frames = false;
     bool keep_back_faces = false;
     std::string triangle_weight = "coverage";
+    mrt::Budgets budgets;
 };
 
 /// The four integers of --crop X0,Y0,X1,Y1; a bad command line otherwise.
@@ -187,11 +188,16 @@ int run(const Arguments& args) {
             std::cerr << "mrt-trace: warning: " << message << '\n';
         }
     };
+    load_options.budgets = args.budgets;
     const mrt::Scene scene = mrt::load_scene(args.scene, load_options);
     const double load_seconds = seconds_since(load_start);
 
     mrt::RenderOptions options;
     std::tie(options.width, options.height) = image_size(scene.camera, args);
+    mrt::check_budget(args.budgets, "pixels",
+                      mrt::saturating_mul(static_cast<std::uint64_t>(options.width),
+                                          static_cast<std::uint64_t>(options.height)),
+                      "pixels (--width x --height)", args.scene, "");
     if (!args.crop.empty()) {
         options.crop = crop_window(parse_crop(args.crop), options.width, options.height);
     }
@@ -419,6 +425,7 @@ int main(int argc, char** argv) {
                    "paper (exp(-(d-1/2)^2) of the closest point's distance, 4.5)")
         ->check(CLI::IsMember({"coverage", "paper"}))
         ->default_val("coverage");
+    mrt::add_budget_option(app, args.budgets);
 
     return mrt::run_tool(
         app, argc, argv, [&] { check_method_options(app, args); }, [&] { return run(args); });
