@@ -9,8 +9,9 @@
 
 namespace mrt {
 
-Scene scene_from_hierarchy(const HierarchyFile& file, const std::filesystem::path& path) {
-    Scene scene = load_scene_record(file.scene_json(), path);
+Scene scene_from_hierarchy(const HierarchyFile& file, const std::filesystem::path& path,
+                           const Budgets& budgets) {
+    Scene scene = load_scene_record(file.scene_json(), path, budgets);
     file.check_materials(static_cast<std::uint32_t>(scene.materials.size()));
     scene.groups.clear();
     const std::span<const HierarchyObject> objects = file.objects();

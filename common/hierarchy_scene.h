@@ -5,6 +5,7 @@
 // as the root — so that every tracer can render a .mrh file without the scene it was built
 // from. load_scene (common/scene_loader.h) calls it for files that begin with the .mrh magic.
 
+#include "common/budgets.h"
 #include "common/hierarchy_file.h"
 #include "common/scene.h"
 
@@ -13,7 +14,9 @@
 namespace mrt {
 
 /// The Scene of `file` (opened from `path`, which errors name). Throws mrt::Error when the
-/// record is not a valid scene record or a triangle refers to a material it does not have.
-Scene scene_from_hierarchy(const HierarchyFile& file, const std::filesystem::path& path);
+/// record is not a valid scene record or a triangle refers to a material it does not have, or
+/// when the record's camera is over the `pixels` budget (load_scene checks the geometry's).
+Scene scene_from_hierarchy(const HierarchyFile& file, const std::filesystem::path& path,
+                           const Budgets& budgets = {});
 
 }  // namespace mrt

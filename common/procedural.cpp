@@ -2,10 +2,12 @@
 
 #include "common/random.h"
 
+#include "common/budgets.h"
 #include "common/error.h"
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -347,6 +349,35 @@ Mesh make_plant(std::uint64_t seed, int depth, int leaves_per_branch, std::uint3
     grow_branch(mesh, mix64(seed), Vec3f::Zero(), Vec3f::UnitY(), 0.45f, 0.02f, depth,
                 leaves_per_branch, stem, leaf);
     return mesh;
+}
+
+}  // namespace mrt
+
+namespace mrt {
+
+std::uint64_t sphere_triangle_count(int segments, int rings) {
+    // A fan at each pole and two triangles per cell of the rings − 2 bands between.
+    const auto seg = static_cast<std::uint64_t>(std::max(segments, 3));
+    const auto bands = static_cast<std::uint64_t>(std::max(rings, 2) - 1);
+    return saturating_mul(2 * seg, bands);
+}
+
+std::uint64_t checkerboard_triangle_count(int tiles_x, int tiles_z) {
+    return saturating_mul(2 * static_cast<std::uint64_t>(std::max(tiles_x, 1)),
+                          static_cast<std::uint64_t>(std::max(tiles_z, 1)));
+}
+
+std::uint64_t plant_triangle_count(int depth, int leaves_per_branch) {
+    // Every branch splits in three: 1 + 3 + … + 3^depth branches, each a stem of 4 segments of 6
+    // sides (48 triangles) with two 6-triangle caps, and blades of 8 triangles.
+    std::uint64_t branches = 0;
+    std::uint64_t level = 1;
+    for (int d = 0; d <= std::max(depth, 0); ++d) {
+        branches = saturating_add(branches, level);
+        level = saturating_mul(level, 3);
+    }
+    const auto leaves = static_cast<std::uint64_t>(std::max(leaves_per_branch, 0));
+    return saturating_mul(branches, saturating_add(60, saturating_mul(8, leaves)));
 }
 
 }  // namespace mrt

@@ -28,11 +28,20 @@ constexpr int kMaxPlantLeavesPerBranch = 1000;
 
 /// A plant: a closed, tapering stem (rings shared by its 4 segments, capped at both ends: 60
 /// triangles) that branches `depth` times, with leaves (curved, normal-interpolated blades of 8
-/// triangles) along every branch, all of it deterministic in `seed`. About 1 unit tall, rooted at the origin, growing along +Y. Many
-/// small, thin, differently oriented triangles: the hard case for point sampling. Materials:
-/// `stem` for the branches, `leaf` for the leaves; uvs along and across each part. Throws Error
-/// unless depth ∈ [0, kMaxPlantDepth] and leaves_per_branch ∈ [0, kMaxPlantLeavesPerBranch].
+/// triangles) along every branch, all of it deterministic in `seed`. About 1 unit tall, rooted at
+/// the origin, growing along +Y. Many small, thin, differently oriented triangles: the hard case
+/// for point sampling. Materials: `stem` for the branches, `leaf` for the leaves; uvs along and
+/// across each part. Throws Error unless depth ∈ [0, kMaxPlantDepth] and leaves_per_branch ∈ [0,
+/// kMaxPlantLeavesPerBranch].
 Mesh make_plant(std::uint64_t seed, int depth, int leaves_per_branch, std::uint32_t stem,
                 std::uint32_t leaf);
+
+// Triangle counts of the shapes above, from their parameters alone, so that a scene's request is
+// weighed against its budget before anything is generated. Saturating: a count too large for
+// 64 bits comes out as the largest uint64. Parameters below the generators' minimums count as
+// them (the generators refuse those anyway).
+std::uint64_t sphere_triangle_count(int segments, int rings);
+std::uint64_t checkerboard_triangle_count(int tiles_x, int tiles_z);
+std::uint64_t plant_triangle_count(int depth, int leaves_per_branch);
 
 }  // namespace mrt

@@ -1,13 +1,14 @@
 #include "common/scene.h"
 
+#include "common/budgets.h"
 #include "common/error.h"
 #include "common/invertibility.h"
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <limits>
-#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -16,9 +17,7 @@ namespace mrt {
 
 namespace {
 
-/// Follows instances from a group, refusing what a hand-built Scene could get wrong (the loader
-/// never produces either): out-of-range indices and cycles (deeper than there are groups).
-void check_instance(const Scene& scene, const Instance& instance, std::size_t depth) {
+void check_index(const Scene& scene, const Instance& instance) {
     const std::size_t count =
         instance.kind == Instance::Kind::Mesh ? scene.meshes.size() : scene.groups.size();
     if (instance.index >= count) {
@@ -27,26 +26,6 @@ void check_instance(const Scene& scene, const Instance& instance, std::size_t de
                                 instance.kind == Instance::Kind::Mesh ? "mesh" : "group",
                                 instance.index, count));
     }
-    if (depth > scene.groups.size()) {
-        throw Error(scene.file, "", "group instances form a cycle");
-    }
-}
-
-std::uint64_t group_triangle_count(const Scene& scene, std::uint32_t group,
-                                   std::vector<std::optional<std::uint64_t>>& memo,
-                                   std::size_t depth) {
-    if (memo[group]) {
-        return *memo[group];
-    }
-    std::uint64_t total = 0;
-    for (const Instance& child : scene.groups[group].children) {
-        check_instance(scene, child, depth + 1);
-        total += child.kind == Instance::Kind::Mesh
-                     ? scene.meshes[child.index].triangle_count()
-                     : group_triangle_count(scene, child.index, memo, depth + 1);
-    }
-    memo[group] = total;
-    return total;
 }
 
 class Flattener {
@@ -67,20 +46,38 @@ class Flattener {
                 m_out.triangles.reserve(triangles);
                 m_out.materials.reserve(triangles);
             }
-            add_group(m_scene.root, Affine3f::Identity(), 0);
+            add_group(m_scene.root);
         }
         return std::move(m_out);
     }
 
   private:
-    void add_group(std::uint32_t group, const Affine3f& to_world, std::size_t depth) {
-        for (const Instance& child : m_scene.groups[group].children) {
-            check_instance(m_scene, child, depth + 1);
-            const Affine3f child_to_world = to_world * child.transform;
+    // Depth first with an explicit stack: the loader bounds the nesting, a hand-built Scene need
+    // not, and the order (children in order, each expanded before the next) is the recursive one.
+    void add_group(std::uint32_t root) {
+        struct Frame {
+            std::uint32_t group;
+            Affine3f to_world;
+            std::size_t next_child;
+        };
+        std::vector<Frame> stack{{root, Affine3f::Identity(), 0}};
+        while (!stack.empty()) {
+            Frame& frame = stack.back();
+            const std::vector<Instance>& children = m_scene.groups[frame.group].children;
+            if (frame.next_child == children.size()) {
+                stack.pop_back();
+                continue;
+            }
+            const Instance& child = children[frame.next_child++];
+            check_index(m_scene, child);
+            const Affine3f child_to_world = frame.to_world * child.transform;
             if (child.kind == Instance::Kind::Mesh) {
                 add_mesh(m_scene.meshes[child.index], child_to_world);
             } else {
-                add_group(child.index, child_to_world, depth + 1);
+                if (stack.size() > m_scene.groups.size()) {
+                    throw Error(m_scene.file, "", "group instances form a cycle");
+                }
+                stack.push_back({child.index, child_to_world, 0});
             }
         }
     }
@@ -132,8 +129,67 @@ std::uint64_t Scene::instanced_triangle_count() const {
     if (root >= groups.size()) {
         return 0;
     }
-    std::vector<std::optional<std::uint64_t>> memo(groups.size());
-    return group_triangle_count(*this, root, memo, 0);
+    std::vector<std::uint64_t> mesh_triangles;
+    mesh_triangles.reserve(meshes.size());
+    for (const Mesh& mesh : meshes) {
+        mesh_triangles.push_back(mesh.triangle_count());
+    }
+    return expand_groups(*this, mesh_triangles)[root].triangles;
+}
+
+std::vector<GroupExpansion> expand_groups(const Scene& scene,
+                                          std::span<const std::uint64_t> mesh_triangles) {
+    enum class State : std::uint8_t { New, Open, Done };
+    std::vector<State> state(scene.groups.size(), State::New);
+    std::vector<GroupExpansion> expansion(scene.groups.size());
+    // Post-order with an explicit stack: a group is summed once all the groups it instances are.
+    struct Frame {
+        std::uint32_t group;
+        std::size_t next_child;
+    };
+    std::vector<Frame> stack;
+    for (std::uint32_t start = 0; start < scene.groups.size(); ++start) {
+        if (state[start] != State::New) {
+            continue;
+        }
+        state[start] = State::Open;
+        stack.push_back({start, 0});
+        while (!stack.empty()) {
+            Frame& frame = stack.back();
+            const std::vector<Instance>& children = scene.groups[frame.group].children;
+            if (frame.next_child < children.size()) {
+                const Instance& child = children[frame.next_child++];
+                check_index(scene, child);
+                if (child.kind == Instance::Kind::Group) {
+                    if (state[child.index] == State::Open) {
+                        throw Error(scene.file, "", "group instances form a cycle");
+                    }
+                    if (state[child.index] == State::New) {
+                        state[child.index] = State::Open;
+                        stack.push_back({child.index, 0});
+                    }
+                }
+                continue;
+            }
+            GroupExpansion& total = expansion[frame.group];
+            for (const Instance& child : children) {
+                if (child.kind == Instance::Kind::Mesh) {
+                    total.instances = saturating_add(total.instances, 1);
+                    total.triangles = saturating_add(
+                        total.triangles,
+                        child.index < mesh_triangles.size() ? mesh_triangles[child.index] : 0);
+                } else {
+                    const GroupExpansion& below = expansion[child.index];
+                    total.levels = std::max(total.levels, saturating_add(below.levels, 1));
+                    total.instances = saturating_add(total.instances, below.instances);
+                    total.triangles = saturating_add(total.triangles, below.triangles);
+                }
+            }
+            state[frame.group] = State::Done;
+            stack.pop_back();
+        }
+    }
+    return expansion;
 }
 
 std::uint64_t Scene::unique_triangle_count() const {

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <iosfwd>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -110,6 +111,26 @@ struct Scene {
     /// Number of unique triangles stored.
     std::uint64_t unique_triangle_count() const;
 };
+
+/// The deepest group nesting any tool accepts, whatever the `group-nesting` budget says
+/// (common/budgets.h): the tracers' traversals and the preprocessor's builders recurse once per
+/// level, and at this depth their frames stay far below a worker thread's stack.
+inline constexpr std::uint64_t kMaxSupportedGroupNesting = 256;
+
+/// What one group stands for once every instance below it is expanded. Counts saturate at the
+/// largest uint64 instead of wrapping.
+struct GroupExpansion {
+    std::uint64_t levels = 1;  ///< Levels of groups, this one included (1: it holds meshes only).
+    std::uint64_t instances = 0;  ///< Mesh placements.
+    std::uint64_t triangles = 0;  ///< Triangles of those placements.
+};
+
+/// The expansion of every group (indexed like Scene::groups), computed without recursion, so a
+/// chain of a million groups is counted, not overflowed; `mesh_triangles[m]` is mesh m's
+/// triangle count (the loader knows it for procedural meshes before generating them). Throws
+/// mrt::Error naming scene.file on an out-of-range index or a cycle.
+std::vector<GroupExpansion> expand_groups(const Scene& scene,
+                                          std::span<const std::uint64_t> mesh_triangles);
 
 /// Every triangle of the scene in world space, one mesh (instances expanded; per-triangle
 /// materials and vertex attributes carried along, normals transformed by the inverse transpose).

@@ -185,9 +185,45 @@ void describe_into(const Json& value, std::string& out, int depth) {
     out += value.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
+/// Refuses the first '[' or '{' that opens level kMaxJsonNesting + 1, counting brackets outside
+/// strings. It runs before the parser, so nothing is built from such a document; brackets that do
+/// not match are left to the parser to report.
+void check_nesting(const std::string& text, const std::filesystem::path& file) {
+    std::size_t depth = 0;
+    bool in_string = false;
+    bool escaped = false;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (in_string) {
+            if (escaped) {
+                escaped = false;
+            } else if (c == '\\') {
+                escaped = true;
+            } else if (c == '"') {
+                in_string = false;
+            }
+            continue;
+        }
+        if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxJsonNesting) {
+                const auto [line, column] = line_and_column(text, i);
+                throw Error(file, fmt::format("line {}, column {} (byte {})", line, column, i),
+                            fmt::format("arrays and objects nest deeper than {} levels (a scene "
+                                        "needs about 10)",
+                                        kMaxJsonNesting));
+            }
+        } else if ((c == ']' || c == '}') && depth > 0) {
+            --depth;
+        }
+    }
+}
+
 }  // namespace
 
 Json parse_json_text(const std::string& text, const std::filesystem::path& file) {
+    check_nesting(text, file);
     Json root;
     DomBuilder builder(root, text, file);
     Json::sax_parse(text, &builder);

@@ -19,8 +19,16 @@ namespace mrt {
 /// Keys keep their document order, so materials and groups are indexed in the order written.
 using Json = nlohmann::ordered_json;
 
+/// Deepest nesting of arrays and objects parse_json_text accepts (the top-level value is level
+/// 1). A scene needs about 10 (a rotation's axis inside a transform step inside an object of a
+/// group); the limit keeps every walk over the document, recursive or not, far from the stack's
+/// end whatever the file holds.
+inline constexpr std::size_t kMaxJsonNesting = 64;
+
 /// Parses JSON text. Syntax errors become Error(file, "line L, column C", "JSON syntax error: …");
-/// duplicate keys and numbers that overflow to infinity are rejected at their JSON pointer.
+/// nesting deeper than kMaxJsonNesting is refused at the opening bracket ("line L, column C (byte
+/// B)") before anything is built; duplicate keys and numbers that overflow to infinity are
+/// rejected at their JSON pointer.
 Json parse_json_text(const std::string& text, const std::filesystem::path& file);
 
 /// 1-based line and column of the byte at `offset` (0-based) of `text`.

@@ -1,5 +1,6 @@
 #include "common/scene_loader.h"
 
+#include "common/budgets.h"
 #include "common/data_path.h"
 #include "common/error.h"
 #include "common/hierarchy_scene.h"
@@ -22,6 +23,7 @@
 #include <map>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -51,6 +53,13 @@ struct PendingMeshFile {
     std::filesystem::path path;
     std::uint32_t material = 0;
     std::string pointer;  ///< Of the "file" value, for messages.
+};
+
+/// A procedural shape to generate once the whole scene is known to be within its budgets.
+struct PendingProcedural {
+    std::uint32_t mesh = 0;  ///< Slot in Scene::meshes.
+    std::string pointer;     ///< Of the shape's object, for messages.
+    std::function<Mesh()> make;
 };
 
 /// One {"instance": name} of a group, kept for the cycle check.
@@ -276,6 +285,52 @@ Affine2f read_uv_transform(const JsonObject& texture) {
     return transform;
 }
 
+/// Refuses a scene whose groups, expanded, are over the budgets: nesting (never deeper than
+/// kMaxSupportedGroupNesting), mesh placements and their triangles, and the unique triangles
+/// stored. `group_location(g)` names group g in messages; `objects` is where the world's
+/// instances are written. Nothing is expanded: the counts come from expand_groups.
+void check_expansion(const Scene& scene, std::span<const std::uint64_t> mesh_triangles,
+                     const Budgets& budgets,
+                     const std::function<std::string(std::uint32_t)>& group_location,
+                     const std::string& objects) {
+    if (scene.root >= scene.groups.size()) {
+        return;
+    }
+    const std::vector<GroupExpansion> expansion = expand_groups(scene, mesh_triangles);
+    const GroupExpansion& world = expansion[scene.root];
+    const std::uint64_t nesting_limit = std::min(budgets.group_nesting, kMaxSupportedGroupNesting);
+    if (world.levels > nesting_limit) {
+        // Down the deepest chain to the first group beyond the limit.
+        std::uint32_t group = scene.root;
+        for (std::uint64_t level = 1; level <= nesting_limit; ++level) {
+            for (const Instance& child : scene.groups[group].children) {
+                if (child.kind == Instance::Kind::Group &&
+                    expansion[child.index].levels + 1 == expansion[group].levels) {
+                    group = child.index;
+                    break;
+                }
+            }
+        }
+        const std::string location = group_location(group);
+        check_budget(budgets, "group-nesting", world.levels, "levels of group nesting", scene.file,
+                     location);
+        throw Error(scene.file, location,
+                    fmt::format("the scene asks for {} levels of group nesting, over the {} "
+                                "levels every tool supports (whatever --budget group-nesting says)",
+                                world.levels, kMaxSupportedGroupNesting));
+    }
+    check_budget(budgets, "instances", world.instances, "mesh instances (groups expanded)",
+                 scene.file, objects);
+    check_budget(budgets, "instanced-triangles", world.triangles, "triangles (instances expanded)",
+                 scene.file, objects);
+    std::uint64_t unique = 0;
+    for (const std::uint64_t triangles : mesh_triangles) {
+        unique = saturating_add(unique, triangles);
+    }
+    check_budget(budgets, "instanced-triangles", unique, "triangles of unique geometry", scene.file,
+                 "");
+}
+
 class SceneBuilder {
   public:
     SceneBuilder(const std::filesystem::path& file, const SceneLoadOptions& options)
@@ -305,6 +360,13 @@ class SceneBuilder {
         read_groups(top.optional("groups"), top.required("objects"));
         check_group_cycles();
         load_mesh_files();
+        check_expansion(
+            m_scene, m_mesh_triangles, m_options.budgets,
+            [this](std::uint32_t group) {
+                return "/groups/" + pointer_token(m_scene.groups[group].name);
+            },
+            "/objects");
+        make_procedural_meshes();
         normalize_object_scales(m_scene);
         return std::move(m_scene);
     }
@@ -352,6 +414,10 @@ class SceneBuilder {
             c.width = size[0].integer(1, kMaxResolution);
             c.height = size[1].integer(1, kMaxResolution);
         }
+        check_budget(m_options.budgets, "pixels",
+                     saturating_mul(static_cast<std::uint64_t>(c.width),
+                                    static_cast<std::uint64_t>(c.height)),
+                     "pixels (camera resolution)", m_file, value.pointer() + "/resolution");
         if (const auto aspect = camera.optional("pixel_aspect")) {
             c.pixel_aspect = aspect->number(NumberRange::closed(kMinPixelAspect, kMaxPixelAspect));
         }
@@ -606,15 +672,16 @@ class SceneBuilder {
             return add_procedural(value,
                                   fmt::format("sphere radius={} segments={} rings={} material={}",
                                               radius, segments, rings, material),
-                                  [&] { return make_sphere(radius, segments, rings, material); });
+                                  sphere_triangle_count(segments, rings),
+                                  [=] { return make_sphere(radius, segments, rings, material); });
         }
         if (shape == "quad") {
             const JsonObject object(value, {"material", "shape", "size", "transform"});
             const Vec2f size = read_size(object);
             const std::uint32_t material = material_reference(object.required("material"));
             return add_procedural(
-                value, fmt::format("quad size={}x{} material={}", size.x(), size.y(), material),
-                [&] { return make_quad(size.x(), size.y(), material); });
+                value, fmt::format("quad size={}x{} material={}", size.x(), size.y(), material), 2,
+                [=] { return make_quad(size.x(), size.y(), material); });
         }
         if (shape == "plant") {
             return read_plant(value);
@@ -644,7 +711,7 @@ class SceneBuilder {
             value,
             fmt::format("checkerboard size={}x{} tiles={}x{} materials={},{}", size.x(), size.y(),
                         tiles_x, tiles_z, material_a, material_b),
-            [&] {
+            checkerboard_triangle_count(tiles_x, tiles_z), [=] {
                 return make_checkerboard(size.x(), size.y(), tiles_x, tiles_z, material_a,
                                          material_b);
             });
@@ -664,7 +731,7 @@ class SceneBuilder {
         return add_procedural(value,
                               fmt::format("plant seed={} depth={} leaves={} materials={},{}", seed,
                                           depth, leaves, stem, leaf),
-                              [&] {
+                              plant_triangle_count(depth, leaves), [=] {
                                   return make_plant(static_cast<std::uint64_t>(seed), depth, leaves,
                                                     stem, leaf);
                               });
@@ -714,66 +781,92 @@ class SceneBuilder {
         }
         const auto index = static_cast<std::uint32_t>(m_scene.meshes.size());
         m_scene.meshes.emplace_back();
+        m_mesh_triangles.push_back(0);  // Known once the file is read.
         m_pending_files.push_back(PendingMeshFile{index, path, material, file.pointer()});
         m_file_meshes.emplace(key, index);
         return index;
     }
 
+    /// A slot for the shape `make` generates, `triangles` of it, made by make_procedural_meshes
+    /// once the whole scene is within its budgets.
     std::uint32_t add_procedural(const JsonValue& object, const std::string& recipe,
-                                 const std::function<Mesh()>& make) {
+                                 std::uint64_t triangles, std::function<Mesh()> make) {
         if (const auto it = m_procedural_meshes.find(recipe); it != m_procedural_meshes.end()) {
             return it->second;
         }
+        check_budget(m_options.budgets, "procedural-triangles", triangles,
+                     "triangles in one procedural shape", m_file, object.pointer());
         const auto index = static_cast<std::uint32_t>(m_scene.meshes.size());
-        try {
-            m_scene.meshes.push_back(make());
-        } catch (const Error& e) {
-            // Each parameter is in range, but together they can exceed the vertex budget.
-            object.fail(e.what());
-        }
+        m_scene.meshes.emplace_back();
+        m_mesh_triangles.push_back(triangles);
+        m_pending_procedural.push_back(PendingProcedural{index, object.pointer(), std::move(make)});
         m_procedural_meshes.emplace(recipe, index);
         return index;
     }
 
-    void check_group_cycles() const {
-        std::vector<VisitState> state(m_scene.groups.size(), VisitState::Unvisited);
-        std::vector<std::uint32_t> path;
-        std::vector<const GroupReference*> edges;
-        for (std::uint32_t group = 0; group < m_scene.groups.size(); ++group) {
-            if (state[group] == VisitState::Unvisited) {
-                visit_group(group, state, path, edges);
+    void make_procedural_meshes() {
+        for (PendingProcedural& pending : m_pending_procedural) {
+            try {
+                m_scene.meshes[pending.mesh] = pending.make();
+            } catch (const Error& e) {
+                // Each parameter is in range, but together they can exceed the vertex budget.
+                throw Error(m_file, pending.pointer, e.what());
             }
         }
     }
 
-    enum class VisitState : std::uint8_t { Unvisited, OnPath, Done };
-
-    // Depth-first; edges[i] leaves path[i], so a back edge to path[k] closes the cycle that
-    // starts with edges[k].
-    void visit_group(std::uint32_t group, std::vector<VisitState>& state,
-                     std::vector<std::uint32_t>& path,
-                     std::vector<const GroupReference*>& edges) const {
-        state[group] = VisitState::OnPath;
-        path.push_back(group);
-        for (const GroupReference& reference : m_group_references[group]) {
-            edges.push_back(&reference);
-            if (state[reference.group] == VisitState::OnPath) {
-                const auto start = static_cast<std::size_t>(
-                    std::find(path.begin(), path.end(), reference.group) - path.begin());
-                std::vector<std::string> names;
-                for (std::size_t i = start; i < path.size(); ++i) {
-                    names.push_back(m_scene.groups[path[i]].name);
+    // Depth first with an explicit stack (a chain of a million groups must not overflow the
+    // C++ one): the path is the stack's groups, and the edge followed out of stack[k] is the
+    // reference just before its next one, so a back edge to stack[k] closes the cycle that
+    // starts with that edge.
+    void check_group_cycles() const {
+        enum class VisitState : std::uint8_t { Unvisited, OnPath, Done };
+        struct Frame {
+            std::uint32_t group;
+            std::size_t next_reference;
+        };
+        std::vector<VisitState> state(m_scene.groups.size(), VisitState::Unvisited);
+        std::vector<Frame> stack;
+        for (std::uint32_t start = 0; start < m_scene.groups.size(); ++start) {
+            if (state[start] != VisitState::Unvisited) {
+                continue;
+            }
+            state[start] = VisitState::OnPath;
+            stack.push_back({start, 0});
+            while (!stack.empty()) {
+                Frame& frame = stack.back();
+                const std::vector<GroupReference>& references = m_group_references[frame.group];
+                if (frame.next_reference == references.size()) {
+                    state[frame.group] = VisitState::Done;
+                    stack.pop_back();
+                    continue;
                 }
-                names.push_back(m_scene.groups[reference.group].name);
-                throw Error(m_file, edges[start]->pointer, "group cycle " + join(names, " → "));
+                const GroupReference& reference = references[frame.next_reference++];
+                if (state[reference.group] == VisitState::OnPath) {
+                    throw_cycle(stack, reference.group);
+                }
+                if (state[reference.group] == VisitState::Unvisited) {
+                    state[reference.group] = VisitState::OnPath;
+                    stack.push_back({reference.group, 0});
+                }
             }
-            if (state[reference.group] == VisitState::Unvisited) {
-                visit_group(reference.group, state, path, edges);
-            }
-            edges.pop_back();
         }
-        path.pop_back();
-        state[group] = VisitState::Done;
+    }
+
+    template <typename Frame>
+    [[noreturn]] void throw_cycle(const std::vector<Frame>& stack, std::uint32_t closing) const {
+        std::size_t start = 0;
+        while (stack[start].group != closing) {
+            ++start;
+        }
+        std::vector<std::string> names;
+        for (std::size_t i = start; i < stack.size(); ++i) {
+            names.push_back(m_scene.groups[stack[i].group].name);
+        }
+        names.push_back(m_scene.groups[closing].name);
+        const GroupReference& first =
+            m_group_references[stack[start].group][stack[start].next_reference - 1];
+        throw Error(m_file, first.pointer, "group cycle " + join(names, " → "));
     }
 
     void load_mesh_files() {
@@ -801,6 +894,9 @@ class SceneBuilder {
             slot = std::move(result.mesh);
             loaded.emplace(pending.path, pending.mesh);
         }
+        for (const PendingMeshFile& pending : m_pending_files) {
+            m_mesh_triangles[pending.mesh] = m_scene.meshes[pending.mesh].triangle_count();
+        }
     }
 
     const std::filesystem::path& m_file;
@@ -814,6 +910,9 @@ class SceneBuilder {
     std::map<std::pair<std::string, std::uint32_t>, std::uint32_t> m_file_meshes;
     std::map<std::string, std::uint32_t> m_procedural_meshes;
     std::vector<PendingMeshFile> m_pending_files;
+    std::vector<PendingProcedural> m_pending_procedural;
+    /// Triangles of each slot of Scene::meshes, procedural ones counted before they are made.
+    std::vector<std::uint64_t> m_mesh_triangles;
     std::vector<std::vector<GroupReference>> m_group_references;
 };
 
@@ -825,7 +924,17 @@ Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& opti
         throw Error(file, "", "is a directory, expected a scene file");
     }
     if (starts_like_section_file(file)) {
-        return scene_from_hierarchy(HierarchyFile::open(file), file);
+        Scene scene = scene_from_hierarchy(HierarchyFile::open(file), file, options.budgets);
+        std::vector<std::uint64_t> mesh_triangles;
+        mesh_triangles.reserve(scene.meshes.size());
+        for (const Mesh& mesh : scene.meshes) {
+            mesh_triangles.push_back(mesh.triangle_count());
+        }
+        // The same rules as for a scene file, so every tool and method sees one limit.
+        check_expansion(
+            scene, mesh_triangles, options.budgets,
+            [&scene](std::uint32_t group) { return scene.groups[group].name; }, "");
+        return scene;
     }
     std::ifstream in(file, std::ios::binary);
     if (!in) {

@@ -3,6 +3,7 @@
 // out-of-range values are errors naming the file, the JSON pointer of the value, what was found
 // and what was expected. See docs/scene-format.md.
 
+#include "common/budgets.h"
 #include "common/scene.h"
 
 #include <filesystem>
@@ -14,6 +15,11 @@ namespace mrt {
 struct SceneLoadOptions {
     /// Receives warnings (e.g. degenerate triangles dropped); default prints nothing.
     std::function<void(const std::string&)> warn;
+    /// Limits on the work the scene may ask for, checked before any geometry is generated or
+    /// expanded: procedural-triangles (per shape), instances, instanced-triangles (also bounds
+    /// the unique triangles stored), group-nesting (at most kMaxSupportedGroupNesting whatever
+    /// the budget) and pixels (the camera's resolution).
+    Budgets budgets;
 };
 
 /// Loads a scene file, or the scene a hierarchy file (.mrh, recognised by its magic) stands for

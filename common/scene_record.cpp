@@ -288,7 +288,8 @@ std::string scene_record_json(const Scene& scene) {
     }
 }
 
-Scene load_scene_record(const std::string& json_text, const std::filesystem::path& file) {
+Scene load_scene_record(const std::string& json_text, const std::filesystem::path& file,
+                        const Budgets& budgets) {
     // Checked before the loader runs, which would otherwise read the mesh files it names.
     const Json document = parse_json_text(json_text, file);
     if (document.is_object()) {
@@ -301,7 +302,9 @@ Scene load_scene_record(const std::string& json_text, const std::filesystem::pat
             objects->fail_expected("[] (a scene record holds no geometry)");
         }
     }
-    return parse_scene(json_text, file);
+    SceneLoadOptions options;
+    options.budgets = budgets;
+    return parse_scene(json_text, file, options);
 }
 
 }  // namespace mrt

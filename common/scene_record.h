@@ -12,6 +12,7 @@
 // always written, as a double: it tells the loader that the camera and lights (and the geometry
 // of the hierarchy file) are already relative to it, so they are not re-based again.
 
+#include "common/budgets.h"
 #include "common/scene.h"
 
 #include <filesystem>
@@ -32,7 +33,8 @@ std::string scene_record_json(const Scene& scene);
 /// The Scene of a record, through parse_scene as if the text were the file `file` (the path of
 /// the hierarchy file, named by every error with the JSON pointer of the offending value). It
 /// has no meshes and one empty group, the world, as a scene file with "objects": [] has. A record
-/// with geometry in it is refused.
-Scene load_scene_record(const std::string& json_text, const std::filesystem::path& file);
+/// with geometry in it is refused, and so is a camera over the `pixels` budget.
+Scene load_scene_record(const std::string& json_text, const std::filesystem::path& file,
+                        const Budgets& budgets = {});
 
 }  // namespace mrt

@@ -42,6 +42,7 @@ struct Arguments {
     int threads = 0;
     bool flatten = false;
     bool quiet = false;
+    mrt::Budgets budgets;
 };
 
 int run(const Arguments& args) {
@@ -54,20 +55,23 @@ int run(const Arguments& args) {
             std::cerr << "mrt-preprocess: warning: " << message << '\n';
         }
     };
+    load_options.budgets = args.budgets;
     const mrt::Scene scene = mrt::load_scene(args.scene, load_options);
     const std::string scene_record = mrt::scene_record_json(scene);
     const std::unique_ptr<mrt::TextureSampler> textures =
         scene.textures.empty()
             ? nullptr
-            : std::make_unique<mrt::TextureSampler>(scene, mrt::TextureFilter::None);
+            : std::make_unique<mrt::TextureSampler>(scene, mrt::TextureFilter::None, args.budgets);
     const double load_seconds = seconds_since(load_start);
 
     mrt::set_activity("building the hierarchy of " + args.scene.string());
     const auto build_start = Clock::now();
     mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene, args.flatten),
                            args.quiet);
+    mrt::PointOctreeOptions octree = args.octree;
+    octree.budgets = args.budgets;
     const mrt::SceneHierarchy hierarchy =
-        mrt::build_scene_hierarchy(scene, textures.get(), args.octree, args.flatten, &progress);
+        mrt::build_scene_hierarchy(scene, textures.get(), octree, args.flatten, &progress);
     progress.finish();
     const double build_seconds = seconds_since(build_start);
 
@@ -136,7 +140,7 @@ int main(int argc, char** argv) {
                  "One octree over every triangle in world space (instances expanded) instead of "
                  "one per unique mesh under instance trees");
     app.add_flag("-q,--quiet", args.quiet, "No summary");
-    mrt::add_budget_option(app, args.octree.budgets);
+    mrt::add_budget_option(app, args.budgets);
     return mrt::run_tool(app, argc, argv, [&] {
         std::optional<tbb::global_control> limit;
         if (args.threads > 0) {

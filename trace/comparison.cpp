@@ -63,6 +63,9 @@ std::vector<std::string> common_arguments(const ComparisonOptions& options,
     if (options.threads) {
         args.insert(args.end(), {"--threads", std::to_string(*options.threads)});
     }
+    for (const std::string& assignment : options.budget_assignments) {
+        args.insert(args.end(), {"--budget", assignment});
+    }
     return args;
 }
 

@@ -33,6 +33,8 @@ struct ComparisonOptions {
     bool quiet = false;                     ///< No messages (reference reuse) on the log.
     bool progress = false;                  ///< A line on the log as each render starts.
     std::filesystem::path trace_exe;        ///< The mrt-trace executable.
+    /// --budget NAME=VALUE assignments, handed to every mrt-trace run as given.
+    std::vector<std::string> budget_assignments;
 };
 
 /// Where the reference of a comparison came from.

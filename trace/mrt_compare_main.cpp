@@ -67,11 +67,16 @@ int main(int argc, char** argv) {
         ->check(CLI::PositiveNumber)
         ->default_val(0.1);
     app.add_flag("-q,--quiet", quiet, "No progress lines or messages on stderr");
+    // Checked here, so a bad assignment is a command-line error of mrt-compare, and handed to
+    // every mrt-trace run as written.
+    mrt::Budgets budgets;
+    mrt::add_budget_option(app, budgets);
 
     return mrt::run_tool(app, argc, argv, [&] {
         options.filter = filter;
         options.threads = threads;
         options.quiet = quiet;
+        options.budget_assignments = app.get_option("--budget")->results();
         options.progress = ::isatty(STDERR_FILENO) == 1;
         options.trace_exe = mrt::find_trace_executable();
         const mrt::Comparison comparison = mrt::run_comparison(options, std::cerr);

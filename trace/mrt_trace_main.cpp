@@ -64,6 +64,7 @@ struct Arguments {
     bool node_frames = false;
     bool keep_back_faces = false;
     std::string triangle_weight = "coverage";
+    mrt::Budgets budgets;
 };
 
 /// The four integers of --crop X0,Y0,X1,Y1; a bad command line otherwise.
@@ -192,11 +193,16 @@ int run(const Arguments& args) {
             std::cerr << "mrt-trace: warning: " << message << '\n';
         }
     };
+    load_options.budgets = args.budgets;
     const mrt::Scene scene = mrt::load_scene(args.scene, load_options);
     const double load_seconds = seconds_since(load_start);
 
     mrt::RenderOptions options;
     std::tie(options.width, options.height) = image_size(scene.camera, args);
+    mrt::check_budget(args.budgets, "pixels",
+                      mrt::saturating_mul(static_cast<std::uint64_t>(options.width),
+                                          static_cast<std::uint64_t>(options.height)),
+                      "pixels (--width x --height)", args.scene, "");
     if (!args.crop.empty()) {
         options.crop = crop_window(parse_crop(args.crop), options.width, options.height);
     }
@@ -226,7 +232,7 @@ int run(const Arguments& args) {
     std::optional<mrt::HierarchyFile> file;
     std::optional<mrt::HierarchyData> built;
     std::optional<mrt::ConeGeometry> geometry;
-    const mrt::TextureSampler textures(scene, options.texture_filter);
+    const mrt::TextureSampler textures(scene, options.texture_filter, args.budgets);
     if (is_cone(args.method)) {
         if (args.scene.extension() == ".mrh") {
             file.emplace(mrt::HierarchyFile::open(args.scene));
@@ -235,13 +241,15 @@ int run(const Arguments& args) {
             // A scene file: its hierarchy is built here with mrt-preprocess's defaults, and
             // counted as build time (mrt-preprocess writes it once for many renders).
             const std::unique_ptr<mrt::TextureSampler> prefilter =
-                scene.textures.empty()
-                    ? nullptr
-                    : std::make_unique<mrt::TextureSampler>(scene, mrt::TextureFilter::None);
+                scene.textures.empty() ? nullptr
+                                       : std::make_unique<mrt::TextureSampler>(
+                                             scene, mrt::TextureFilter::None, args.budgets);
             mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene, false),
                                    args.quiet);
+            mrt::PointOctreeOptions octree;
+            octree.budgets = args.budgets;
             const mrt::SceneHierarchy hierarchy =
-                mrt::build_scene_hierarchy(scene, prefilter.get(), {}, false, &progress);
+                mrt::build_scene_hierarchy(scene, prefilter.get(), octree, false, &progress);
             progress.finish();
             built.emplace(mrt::pack_hierarchy(hierarchy, scene.materials, "{}", "{}"));
             geometry.emplace(built->view(), scene, textures);
@@ -429,6 +437,7 @@ int main(int argc, char** argv) {
                    "paper (exp(-(d-1/2)^2) of the closest point's distance, 4.5)")
         ->check(CLI::IsMember({"coverage", "paper"}))
         ->default_val("coverage");
+    mrt::add_budget_option(app, args.budgets);
 
     return mrt::run_tool(
         app, argc, argv, [&] { check_method_options(app, args); }, [&] { return run(args); });

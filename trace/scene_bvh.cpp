@@ -15,8 +15,9 @@
 namespace mrt {
 namespace {
 
-/// Groups nest at most this deep (root = 1), which bounds the traversal's recursion.
-constexpr int kMaxGroupNesting = 32;
+/// Groups nest at most this deep (root = 1), which bounds the traversal's recursion. The scene
+/// loader refuses deeper scenes (the group-nesting budget); this guards hand-built ones.
+constexpr int kMaxGroupNesting = static_cast<int>(kMaxSupportedGroupNesting);
 
 /// Instances are expensive primitives (a ray transform and a whole BVH), so group BVHs end in
 /// single-instance leaves.
