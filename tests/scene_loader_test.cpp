@@ -1454,254 +1454,243 @@ TEST(Invertibility, ConditionIsThatOfTheBestScalingOfRowsAndColumns) {
     Eigen::Matrix3d singular;
     singular << 1, 2, 3, 2, 4, 6, 0, 0, 1;
     EXPECT_EQ(scaling_invariant_condition(singular), std::numeric_limits<double>::infinity());
-    // ---- Hostile files: nesting, group chains and budgets
-    // ----------------------------------------
+}
 
-    /// The message of the Error parsing with `options` throws, or a note that nothing was thrown.
-    std::string error_with(const std::string& json, const SceneLoadOptions& options) {
-        try {
-            parse_scene(json, "scene.json", options);
-        } catch (const Error& e) {
-            return e.what();
+// ---- Hostile files: nesting, group chains and budgets ----------------------------------------
+
+/// The message of the Error parsing with `options` throws, or a note that nothing was thrown.
+std::string error_with(const std::string& json, const SceneLoadOptions& options) {
+    try {
+        parse_scene(json, "scene.json", options);
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+/// "groups": g1 … gN, each g_k instancing g_{k+1} `copies` times and gN holding `leaf`; the
+/// world instances g1 once. World included, that is N + 1 levels of groups.
+std::string group_chain(std::size_t n, int copies = 1,
+                        const std::string& leaf = R"({"shape": "quad", "material": "red"})") {
+    std::string groups = "{";
+    for (std::size_t k = 1; k <= n; ++k) {
+        groups += (k > 1 ? ", " : "") + ("\"g" + std::to_string(k) + "\": {\"objects\": [");
+        for (int c = 0; c < copies; ++c) {
+            groups += (c > 0 ? ", " : "") +
+                      (k < n ? "{\"instance\": \"g" + std::to_string(k + 1) + "\"}" : leaf);
         }
-        return "(no error)";
+        groups += "]}";
     }
+    return groups + "}";
+}
 
-    /// "groups": g1 … gN, each g_k instancing g_{k+1} `copies` times and gN holding `leaf`; the
-    /// world instances g1 once. World included, that is N + 1 levels of groups.
-    std::string group_chain(std::size_t n, int copies = 1,
-                            const std::string& leaf = R"({"shape": "quad", "material": "red"})") {
-        std::string groups = "{";
-        for (std::size_t k = 1; k <= n; ++k) {
-            groups += (k > 1 ? ", " : "") + ("\"g" + std::to_string(k) + "\": {\"objects\": [");
-            for (int c = 0; c < copies; ++c) {
-                groups += (c > 0 ? ", " : "") +
-                          (k < n ? "{\"instance\": \"g" + std::to_string(k + 1) + "\"}" : leaf);
-            }
-            groups += "]}";
-        }
-        return groups + "}";
+std::string chain_scene(std::size_t n, int copies = 1) {
+    return SceneParts().groups(group_chain(n, copies)).objects(R"([{"instance": "g1"}])").json();
+}
+
+TEST(SceneLoader, RefusesJsonNestedDeeperThanTheLimitAtTheOpeningBracket) {
+    // 100 000 arrays in "ambient", followed by further keys in the same object.
+    const std::string prefix = R"({"ambient": )";
+    const std::string json = prefix + std::string(100'000, '[') + std::string(100'000, ']') +
+                             R"(, "camera": {"eye": [0, 0, 5], "look_at": [0, 0, 0]}, )"
+                             R"("objects": []})";
+    // The top-level object is level 1: the 64th bracket opens level 65.
+    const std::size_t byte = prefix.size() + 63;
+    EXPECT_EQ(error_of(json),
+              "scene.json: line 1, column " + std::to_string(byte + 1) + " (byte " +
+                  std::to_string(byte) +
+                  "): arrays and objects nest deeper than 64 levels (a scene needs about 10)");
+}
+
+TEST(SceneLoader, RefusesAMillionNestedObjectsUnderAnUnknownKeyBeforeBuildingThem) {
+    std::string json = "{\n\"camera\": {\"eye\": [0, 0, 5], \"look_at\": [0, 0, 0]},\n\"x\": ";
+    const std::size_t start = json.size();
+    for (int i = 0; i < 1'000'000; ++i) {
+        json += "{\"a\":";
     }
+    json += "1" + std::string(1'000'000, '}') + ", \"objects\": []}";
+    const std::size_t byte = start + 63 * 5;  // Five bytes per level; the file's "{" is level 1.
+    const std::size_t column = byte - json.rfind('\n', start);
+    EXPECT_EQ(error_of(json), "scene.json: line 3, column " + std::to_string(column) + " (byte " +
+                                  std::to_string(byte) +
+                                  "): arrays and objects nest deeper than 64 levels (a scene "
+                                  "needs about 10)");
+}
 
-    std::string chain_scene(std::size_t n, int copies = 1) {
-        return SceneParts()
-            .groups(group_chain(n, copies))
-            .objects(R"([{"instance": "g1"}])")
-            .json();
+TEST(SceneLoader, NestingUpToTheLimitIsLeftToTheValueChecks) {
+    // 63 arrays in "ambient" reach level 64 exactly: no nesting error, but a wrong colour.
+    const std::string json =
+        SceneParts().extra(R"("ambient": )" + std::string(63, '[') + std::string(63, ']')).json();
+    EXPECT_EQ(error_of(json),
+              "scene.json: /ambient: found [[[[...]]]], expected an array of 3 "
+              "numbers or a number");
+}
+
+TEST(SceneLoader, BracketsInsideStringsAreNotNesting) {
+    const std::string brackets = std::string(200, '[') + "\\\"" + std::string(200, '{');
+    const Scene scene =
+        parse(SceneParts().materials(R"({")" + brackets + R"(": {}, "red": {}})").json());
+    EXPECT_EQ(scene.materials.front().name, std::string(200, '[') + "\"" + std::string(200, '{'));
+}
+
+TEST(SceneLoader, RefusesGroupChainsDeeperThanTheLimit) {
+    // 20 000 groups each instancing the next: 20 001 levels with the world; g64 is level 65.
+    EXPECT_EQ(error_of(chain_scene(20'000)),
+              "scene.json: /groups/g64: the scene asks for 20001 levels of group nesting, over "
+              "the limit of 64 (raise it with --budget group-nesting=N)");
+}
+
+TEST(SceneLoader, AcceptsGroupsNestedExactlyToTheLimit) {
+    const Scene scene = parse(chain_scene(63));
+    std::vector<std::uint64_t> triangles;
+    for (const Mesh& mesh : scene.meshes) {
+        triangles.push_back(mesh.triangle_count());
     }
+    EXPECT_EQ(expand_groups(scene, triangles)[scene.root].levels, 64u);
+    EXPECT_EQ(scene.instanced_triangle_count(), 2u);
+    EXPECT_EQ(error_of(chain_scene(64)),
+              "scene.json: /groups/g64: the scene asks for 65 levels of group nesting, over the "
+              "limit of 64 (raise it with --budget group-nesting=N)");
+}
 
-    TEST(SceneLoader, RefusesJsonNestedDeeperThanTheLimitAtTheOpeningBracket) {
-        // 100 000 arrays in "ambient", followed by further keys in the same object.
-        const std::string prefix = R"({"ambient": )";
-        const std::string json = prefix + std::string(100'000, '[') + std::string(100'000, ']') +
-                                 R"(, "camera": {"eye": [0, 0, 5], "look_at": [0, 0, 0]}, )"
-                                 R"("objects": []})";
-        // The top-level object is level 1: the 64th bracket opens level 65.
-        const std::size_t byte = prefix.size() + 63;
-        EXPECT_EQ(error_of(json),
-                  "scene.json: line 1, column " + std::to_string(byte + 1) + " (byte " +
-                      std::to_string(byte) +
-                      "): arrays and objects nest deeper than 64 levels (a scene needs about 10)");
-    }
+TEST(SceneLoader, GroupNestingBudgetRaisesTheLimitUpToWhatEveryToolSupports) {
+    SceneLoadOptions options;
+    options.budgets.group_nesting = 100;
+    EXPECT_NO_THROW(parse(chain_scene(99), options));
+    options.budgets.group_nesting = 1'000'000;
+    EXPECT_NO_THROW(parse(chain_scene(255), options));
+    EXPECT_EQ(error_with(chain_scene(300), options),
+              "scene.json: /groups/g256: the scene asks for 301 levels of group nesting, over the "
+              "256 levels every tool supports (whatever --budget group-nesting says)");
+    EXPECT_EQ(kMaxSupportedGroupNesting, 256u);
+}
 
-    TEST(SceneLoader, RefusesAMillionNestedObjectsUnderAnUnknownKeyBeforeBuildingThem) {
-        std::string json = "{\n\"camera\": {\"eye\": [0, 0, 5], \"look_at\": [0, 0, 0]},\n\"x\": ";
-        const std::size_t start = json.size();
-        for (int i = 0; i < 1'000'000; ++i) {
-            json += "{\"a\":";
-        }
-        json += "1" + std::string(1'000'000, '}') + ", \"objects\": []}";
-        const std::size_t byte =
-            start + 63 * 5;  // Five bytes per level; the file's "{" is level 1.
-        const std::size_t column = byte - json.rfind('\n', start);
-        EXPECT_EQ(error_of(json), "scene.json: line 3, column " + std::to_string(column) +
-                                      " (byte " + std::to_string(byte) +
-                                      "): arrays and objects nest deeper than 64 levels (a scene "
-                                      "needs about 10)");
-    }
-
-    TEST(SceneLoader, NestingUpToTheLimitIsLeftToTheValueChecks) {
-        // 63 arrays in "ambient" reach level 64 exactly: no nesting error, but a wrong colour.
-        const std::string json =
-            SceneParts()
-                .extra(R"("ambient": )" + std::string(63, '[') + std::string(63, ']'))
-                .json();
-        EXPECT_EQ(error_of(json),
-                  "scene.json: /ambient: found [[[[...]]]], expected an array of 3 "
-                  "numbers or a number");
-    }
-
-    TEST(SceneLoader, BracketsInsideStringsAreNotNesting) {
-        const std::string brackets = std::string(200, '[') + "\\\"" + std::string(200, '{');
-        const Scene scene =
-            parse(SceneParts().materials(R"({")" + brackets + R"(": {}, "red": {}})").json());
-        EXPECT_EQ(scene.materials.front().name,
-                  std::string(200, '[') + "\"" + std::string(200, '{'));
-    }
-
-    TEST(SceneLoader, RefusesGroupChainsDeeperThanTheLimit) {
-        // 20 000 groups each instancing the next: 20 001 levels with the world; g64 is level 65.
-        EXPECT_EQ(error_of(chain_scene(20'000)),
-                  "scene.json: /groups/g64: the scene asks for 20001 levels of group nesting, over "
-                  "the limit of 64 (raise it with --budget group-nesting=N)");
-    }
-
-    TEST(SceneLoader, AcceptsGroupsNestedExactlyToTheLimit) {
-        const Scene scene = parse(chain_scene(63));
-        std::vector<std::uint64_t> triangles;
-        for (const Mesh& mesh : scene.meshes) {
-            triangles.push_back(mesh.triangle_count());
-        }
-        EXPECT_EQ(expand_groups(scene, triangles)[scene.root].levels, 64u);
-        EXPECT_EQ(scene.instanced_triangle_count(), 2u);
-        EXPECT_EQ(
-            error_of(chain_scene(64)),
-            "scene.json: /groups/g64: the scene asks for 65 levels of group nesting, over the "
-            "limit of 64 (raise it with --budget group-nesting=N)");
-    }
-
-    TEST(SceneLoader, GroupNestingBudgetRaisesTheLimitUpToWhatEveryToolSupports) {
-        SceneLoadOptions options;
-        options.budgets.group_nesting = 100;
-        EXPECT_NO_THROW(parse(chain_scene(99), options));
-        options.budgets.group_nesting = 1'000'000;
-        EXPECT_NO_THROW(parse(chain_scene(255), options));
-        EXPECT_EQ(
-            error_with(chain_scene(300), options),
-            "scene.json: /groups/g256: the scene asks for 301 levels of group nesting, over the "
-            "256 levels every tool supports (whatever --budget group-nesting says)");
-        EXPECT_EQ(kMaxSupportedGroupNesting, 256u);
-    }
-
-    TEST(SceneLoader, RefusesSphereOverTheProceduralTriangleBudgetBeforeGeneratingIt) {
-        // 2 × 65536 × 65535 triangles; generating them took minutes before the budget.
-        EXPECT_EQ(error_of(SceneParts()
-                               .objects(R"([{"shape": "quad", "material": "red"},
+TEST(SceneLoader, RefusesSphereOverTheProceduralTriangleBudgetBeforeGeneratingIt) {
+    // 2 × 65536 × 65535 triangles; generating them took minutes before the budget.
+    EXPECT_EQ(error_of(SceneParts()
+                           .objects(R"([{"shape": "quad", "material": "red"},
                                         {"shape": "sphere", "material": "red",
                                          "segments": 65536, "rings": 65536}])")
-                               .json()),
-                  "scene.json: /objects/1: the scene asks for 8.59e+09 triangles in one procedural "
-                  "shape, over the limit of 2e+07 (raise it with --budget procedural-triangles=N)");
-    }
+                           .json()),
+              "scene.json: /objects/1: the scene asks for 8.59e+09 triangles in one procedural "
+              "shape, over the limit of 2e+07 (raise it with --budget procedural-triangles=N)");
+}
 
-    TEST(SceneLoader, RefusesCheckerboardAndPlantOverTheProceduralTriangleBudget) {
-        EXPECT_EQ(error_of(SceneParts()
-                               .objects(R"([{"shape": "checkerboard", "materials": ["red", "glass"],
+TEST(SceneLoader, RefusesCheckerboardAndPlantOverTheProceduralTriangleBudget) {
+    EXPECT_EQ(error_of(SceneParts()
+                           .objects(R"([{"shape": "checkerboard", "materials": ["red", "glass"],
                                          "tiles": [65536, 65536]}])")
-                               .json()),
-                  "scene.json: /objects/0: the scene asks for 8.59e+09 triangles in one procedural "
-                  "shape, over the limit of 2e+07 (raise it with --budget procedural-triangles=N)");
-        // (3^9 − 1) / 2 = 9841 branches of 60 + 8 × 1000 triangles.
-        EXPECT_EQ(error_of(SceneParts()
-                               .objects(R"([{"shape": "plant", "stem_material": "red",
+                           .json()),
+              "scene.json: /objects/0: the scene asks for 8.59e+09 triangles in one procedural "
+              "shape, over the limit of 2e+07 (raise it with --budget procedural-triangles=N)");
+    // (3^9 − 1) / 2 = 9841 branches of 60 + 8 × 1000 triangles.
+    EXPECT_EQ(error_of(SceneParts()
+                           .objects(R"([{"shape": "plant", "stem_material": "red",
                                          "leaf_material": "red", "depth": 8,
                                          "leaves_per_branch": 1000}])")
-                               .json()),
-                  "scene.json: /objects/0: the scene asks for 7.93e+07 triangles in one procedural "
-                  "shape, over the limit of 2e+07 (raise it with --budget procedural-triangles=N)");
-    }
+                           .json()),
+              "scene.json: /objects/0: the scene asks for 7.93e+07 triangles in one procedural "
+              "shape, over the limit of 2e+07 (raise it with --budget procedural-triangles=N)");
+}
 
-    TEST(SceneLoader, ProceduralTriangleCountsMatchTheGeneratedMeshes) {
-        for (const auto& [segments, rings] : {std::pair{3, 2}, {5, 4}, {64, 32}, {7, 9}}) {
-            EXPECT_EQ(sphere_triangle_count(segments, rings),
-                      make_sphere(1.0f, segments, rings, 0).triangle_count())
-                << segments << " x " << rings;
-        }
-        for (const auto& [x, z] : {std::pair{1, 1}, {3, 7}, {8, 8}}) {
-            EXPECT_EQ(checkerboard_triangle_count(x, z),
-                      make_checkerboard(1.0f, 1.0f, x, z, 0, 1).triangle_count());
-        }
-        for (const auto& [depth, leaves] : {std::pair{0, 0}, {2, 3}, {3, 6}}) {
-            EXPECT_EQ(plant_triangle_count(depth, leaves),
-                      make_plant(7, depth, leaves, 0, 1).triangle_count())
-                << depth << ", " << leaves;
-        }
+TEST(SceneLoader, ProceduralTriangleCountsMatchTheGeneratedMeshes) {
+    for (const auto& [segments, rings] : {std::pair{3, 2}, {5, 4}, {64, 32}, {7, 9}}) {
+        EXPECT_EQ(sphere_triangle_count(segments, rings),
+                  make_sphere(1.0f, segments, rings, 0).triangle_count())
+            << segments << " x " << rings;
     }
-
-    TEST(SceneLoader, RefusesMoreInstancesThanTheBudgetCountingGroupsExpanded) {
-        // 27 groups each instancing the next twice: 2^27 = 134 217 728 quads.
-        EXPECT_EQ(error_of(chain_scene(27, 2)),
-                  "scene.json: /objects: the scene asks for 1.34e+08 mesh instances (groups "
-                  "expanded), over the limit of 1e+08 (raise it with --budget instances=N)");
+    for (const auto& [x, z] : {std::pair{1, 1}, {3, 7}, {8, 8}}) {
+        EXPECT_EQ(checkerboard_triangle_count(x, z),
+                  make_checkerboard(1.0f, 1.0f, x, z, 0, 1).triangle_count());
     }
-
-    TEST(SceneLoader, RefusesInstancedTrianglesOverTheBudget) {
-        SceneLoadOptions options;
-        options.budgets.instanced_triangles = 11;
-        // g1 instances g2 three times, g2 holds three quads of 2 triangles.
-        EXPECT_EQ(
-            error_with(chain_scene(2, 3), options),
-            "scene.json: /objects: the scene asks for 18 triangles (instances expanded), over "
-            "the limit of 11 (raise it with --budget instanced-triangles=N)");
-        options.budgets.instanced_triangles = 18;
-        EXPECT_EQ(parse(chain_scene(2, 3), options).instanced_triangle_count(), 18u);
+    for (const auto& [depth, leaves] : {std::pair{0, 0}, {2, 3}, {3, 6}}) {
+        EXPECT_EQ(plant_triangle_count(depth, leaves),
+                  make_plant(7, depth, leaves, 0, 1).triangle_count())
+            << depth << ", " << leaves;
     }
+}
 
-    TEST(SceneLoader, CountsThatOverflowSixtyFourBitsSaturate) {
-        // 63 groups doubling each level: 2^63 quads, 2^64 triangles, which would wrap to 0.
-        SceneLoadOptions options;
-        options.budgets.instances = std::numeric_limits<std::uint64_t>::max();
-        EXPECT_EQ(
-            error_with(chain_scene(63, 2), options),
-            "scene.json: /objects: the scene asks for more than 1.8e19 triangles (instances "
-            "expanded), over the limit of 4e+09 (raise it with --budget instanced-triangles=N)");
-    }
+TEST(SceneLoader, RefusesMoreInstancesThanTheBudgetCountingGroupsExpanded) {
+    // 27 groups each instancing the next twice: 2^27 = 134 217 728 quads.
+    EXPECT_EQ(error_of(chain_scene(27, 2)),
+              "scene.json: /objects: the scene asks for 1.34e+08 mesh instances (groups "
+              "expanded), over the limit of 1e+08 (raise it with --budget instances=N)");
+}
 
-    TEST(SceneLoader, RefusesACameraResolutionOverThePixelBudget) {
-        EXPECT_EQ(error_of(SceneParts()
-                               .camera(R"({"eye": [0, 0, 5], "look_at": [0, 0, 0],
+TEST(SceneLoader, RefusesInstancedTrianglesOverTheBudget) {
+    SceneLoadOptions options;
+    options.budgets.instanced_triangles = 11;
+    // g1 instances g2 three times, g2 holds three quads of 2 triangles.
+    EXPECT_EQ(error_with(chain_scene(2, 3), options),
+              "scene.json: /objects: the scene asks for 18 triangles (instances expanded), over "
+              "the limit of 11 (raise it with --budget instanced-triangles=N)");
+    options.budgets.instanced_triangles = 18;
+    EXPECT_EQ(parse(chain_scene(2, 3), options).instanced_triangle_count(), 18u);
+}
+
+TEST(SceneLoader, CountsThatOverflowSixtyFourBitsSaturate) {
+    // 63 groups doubling each level: 2^63 quads, 2^64 triangles, which would wrap to 0.
+    SceneLoadOptions options;
+    options.budgets.instances = std::numeric_limits<std::uint64_t>::max();
+    EXPECT_EQ(error_with(chain_scene(63, 2), options),
+              "scene.json: /objects: the scene asks for more than 1.8e19 triangles (instances "
+              "expanded), over the limit of 4e+09 (raise it with --budget instanced-triangles=N)");
+}
+
+TEST(SceneLoader, RefusesACameraResolutionOverThePixelBudget) {
+    EXPECT_EQ(error_of(SceneParts()
+                           .camera(R"({"eye": [0, 0, 5], "look_at": [0, 0, 0],
                                        "resolution": [65536, 65536]})")
-                               .json()),
-                  "scene.json: /camera/resolution: the scene asks for 4.29e+09 pixels (camera "
-                  "resolution), over the limit of 2.68e+08 (raise it with --budget pixels=N)");
-        SceneLoadOptions options;
-        options.budgets.pixels = 65536ull * 65536ull;
-        EXPECT_EQ(parse(SceneParts()
-                            .camera(R"({"eye": [0, 0, 5], "look_at": [0, 0, 0],
+                           .json()),
+              "scene.json: /camera/resolution: the scene asks for 4.29e+09 pixels (camera "
+              "resolution), over the limit of 2.68e+08 (raise it with --budget pixels=N)");
+    SceneLoadOptions options;
+    options.budgets.pixels = 65536ull * 65536ull;
+    EXPECT_EQ(parse(SceneParts()
+                        .camera(R"({"eye": [0, 0, 5], "look_at": [0, 0, 0],
                                     "resolution": [65536, 65536]})")
-                            .json(),
-                        options)
-                      .camera.width,
-                  65536);
-    }
+                        .json(),
+                    options)
+                  .camera.width,
+              65536);
+}
 
-    /// world → g1 → … → g_n → triangle, built by hand (no loader to bound it).
-    Scene hand_built_chain(std::uint32_t n) {
-        Scene scene;
-        scene.materials.resize(1);
-        scene.meshes.push_back(unit_triangle(0));
-        scene.groups.resize(n + 1);
-        for (std::uint32_t g = 0; g < n; ++g) {
-            scene.groups[g].children.push_back(
-                {Instance::Kind::Group, g + 1, translation(1, 0, 0)});
-        }
-        scene.groups[n].children.push_back({Instance::Kind::Mesh, 0, Affine3f::Identity()});
-        return scene;
+/// world → g1 → … → g_n → triangle, built by hand (no loader to bound it).
+Scene hand_built_chain(std::uint32_t n) {
+    Scene scene;
+    scene.materials.resize(1);
+    scene.meshes.push_back(unit_triangle(0));
+    scene.groups.resize(n + 1);
+    for (std::uint32_t g = 0; g < n; ++g) {
+        scene.groups[g].children.push_back({Instance::Kind::Group, g + 1, translation(1, 0, 0)});
     }
+    scene.groups[n].children.push_back({Instance::Kind::Mesh, 0, Affine3f::Identity()});
+    return scene;
+}
 
-    TEST(Scene, CountsAndFlattensDeepChainsOfGroupsWithoutRecursion) {
-        const Scene scene = hand_built_chain(200'000);
-        EXPECT_EQ(scene.instanced_triangle_count(), 1u);
-        const std::vector<std::uint64_t> triangles{1};
-        EXPECT_EQ(expand_groups(scene, triangles)[0].levels, 200'001u);
-        const Mesh flat = flatten(scene);
-        ASSERT_EQ(flat.positions.size(), 3u);
-        // 200 000 translations by 1 in single precision: exact (integers below 2^24).
-        EXPECT_EQ(flat.positions[0], Vec3f(2e5f, 0.0f, 0.0f));
-    }
+TEST(Scene, CountsAndFlattensDeepChainsOfGroupsWithoutRecursion) {
+    const Scene scene = hand_built_chain(200'000);
+    EXPECT_EQ(scene.instanced_triangle_count(), 1u);
+    const std::vector<std::uint64_t> triangles{1};
+    EXPECT_EQ(expand_groups(scene, triangles)[0].levels, 200'001u);
+    const Mesh flat = flatten(scene);
+    ASSERT_EQ(flat.positions.size(), 3u);
+    // 200 000 translations by 1 in single precision: exact (integers below 2^24).
+    EXPECT_EQ(flat.positions[0], Vec3f(2e5f, 0.0f, 0.0f));
+}
 
-    TEST(Scene, CountingRefusesACycleInAHandBuiltScene) {
-        Scene scene = hand_built_chain(3);
-        scene.file = "hand.json";
-        scene.groups[3].children.push_back({Instance::Kind::Group, 1, Affine3f::Identity()});
-        const std::vector<std::uint64_t> triangles{1};
-        try {
-            expand_groups(scene, triangles);
-            ADD_FAILURE() << "no error";
-        } catch (const Error& e) {
-            EXPECT_STREQ(e.what(), "hand.json: group instances form a cycle");
-        }
+TEST(Scene, CountingRefusesACycleInAHandBuiltScene) {
+    Scene scene = hand_built_chain(3);
+    scene.file = "hand.json";
+    scene.groups[3].children.push_back({Instance::Kind::Group, 1, Affine3f::Identity()});
+    const std::vector<std::uint64_t> triangles{1};
+    try {
+        expand_groups(scene, triangles);
+        ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+        EXPECT_STREQ(e.what(), "hand.json: group instances form a cycle");
     }
+}
 
 }  // namespace
 }  // namespace mrt
