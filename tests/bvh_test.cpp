@@ -696,9 +696,12 @@ TEST(SceneBvh, RejectsCyclesAndBadIndices) {
     bad_mesh.groups[0].children.push_back({Instance::Kind::Mesh, 7, Affine3f::Identity()});
     EXPECT_THROW(SceneBvh{bad_mesh}, Error);
 
+    // One level more than any tool accepts (the loader refuses it first; this guards hand-built
+    // scenes).
     Scene deep = single_mesh_scene(random_soup(4, 1, 0.1f));
-    deep.groups.resize(100);
-    for (std::uint32_t g = 0; g + 1 < 100; ++g) {
+    constexpr auto kLevels = static_cast<std::uint32_t>(kMaxSupportedGroupNesting + 1);
+    deep.groups.resize(kLevels);
+    for (std::uint32_t g = 0; g + 1 < kLevels; ++g) {
         deep.groups[g].children.push_back({Instance::Kind::Group, g + 1, Affine3f::Identity()});
     }
     EXPECT_THROW(SceneBvh{deep}, Error);
