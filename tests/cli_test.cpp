@@ -42,8 +42,9 @@ struct TraceRun {
     std::string output;  ///< stdout and stderr together
 };
 
-TraceRun run_trace(const std::string& arguments) {
-    const std::string command = std::string(MRT_TRACE_EXE) + " " + arguments + " 2>&1";
+/// Runs `exe` with `arguments` through the shell: its exit code and its stdout and stderr.
+TraceRun run_tool(const char* exe, const std::string& arguments) {
+    const std::string command = std::string(exe) + " " + arguments + " 2>&1";
     FILE* pipe = popen(command.c_str(), "r");
     if (pipe == nullptr) {
         return {-1, "popen failed"};
@@ -55,6 +56,10 @@ TraceRun run_trace(const std::string& arguments) {
     }
     const int status = pclose(pipe);
     return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), output};
+}
+
+TraceRun run_trace(const std::string& arguments) {
+    return run_tool(MRT_TRACE_EXE, arguments);
 }
 
 fs::path temp_dir() {
@@ -520,22 +525,6 @@ TEST(MrtCompareCli, HandsItsBudgetAssignmentsToEveryRun) {
 // ---- Every tool's output paths, checked before any work -------------------------------------
 
 namespace {
-
-/// Runs `exe` with `arguments` through the shell: its exit code and its stdout and stderr.
-TraceRun run_tool(const char* exe, const std::string& arguments) {
-    const std::string command = std::string(exe) + " " + arguments + " 2>&1";
-    FILE* pipe = popen(command.c_str(), "r");
-    if (pipe == nullptr) {
-        return {-1, "popen failed"};
-    }
-    std::string output;
-    std::array<char, 4096> buffer{};
-    while (fgets(buffer.data(), static_cast<int>(buffer.size()), pipe) != nullptr) {
-        output += buffer.data();
-    }
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), output};
-}
 
 std::vector<std::string> entries(const fs::path& dir) {
     std::vector<std::string> names;

@@ -29,6 +29,7 @@
 #include <array>
 #include <cstdio>
 #include <string>
+#include <tuple>
 #include <utility>
 
 namespace mrt {
@@ -102,6 +103,19 @@ RenderOptions render_options(int spp) {
     return options;
 }
 
+/// cone and cone-classic over the scene's hierarchy, built in memory with the defaults.
+std::pair<Image, Image> render_cones(const Scene& scene, const TextureSampler& textures,
+                                     const RenderOptions& options) {
+    const SceneHierarchy hierarchy =
+        build_scene_hierarchy(scene, nullptr, PointOctreeOptions{}, false);
+    const HierarchyData data = pack_hierarchy(hierarchy, scene.materials, "{}", "{}");
+    const ConeGeometry geometry(data.view(), scene, textures);
+    ConeOptions classic;
+    classic.traversal.points = false;
+    return {render_cone(geometry, options, ConeOptions{}).render.image,
+            render_cone(geometry, options, classic).render.image};
+}
+
 MethodImages render_all(const Vec3d& offset) {
     const Scene scene = parse_scene(scene_json(offset), "far.json");
     const TextureSampler textures(scene, TextureFilter::Anisotropic);
@@ -109,14 +123,7 @@ MethodImages render_all(const Vec3d& offset) {
     MethodImages out;
     out.images[0] = render_whitted(scene, bvh, textures, render_options(1)).image;
     out.images[1] = render_distributed(scene, bvh, textures, render_options(4)).image;
-    const SceneHierarchy hierarchy =
-        build_scene_hierarchy(scene, nullptr, PointOctreeOptions{}, false);
-    const HierarchyData data = pack_hierarchy(hierarchy, scene.materials, "{}", "{}");
-    const ConeGeometry geometry(data.view(), scene, textures);
-    ConeOptions classic;
-    classic.traversal.points = false;
-    out.images[2] = render_cone(geometry, render_options(1), ConeOptions{}).render.image;
-    out.images[3] = render_cone(geometry, render_options(1), classic).render.image;
+    std::tie(out.images[2], out.images[3]) = render_cones(scene, textures, render_options(1));
     return out;
 }
 
@@ -222,16 +229,10 @@ TEST(ExtremeScale, UniformScalesOf1e13And1e18RenderAsTheUnitObject) {
         options.width = options.height = 48;
         RenderOptions cone_options = render_options(1);
         cone_options.width = cone_options.height = 48;
-        const SceneHierarchy hierarchy =
-            build_scene_hierarchy(scene, nullptr, PointOctreeOptions{}, false);
-        const HierarchyData data = pack_hierarchy(hierarchy, scene.materials, "{}", "{}");
-        const ConeGeometry geometry(data.view(), scene, textures);
-        ConeOptions classic;
-        classic.traversal.points = false;
+        auto [cone, classic] = render_cones(scene, textures, cone_options);
         return std::array{render_whitted(scene, bvh, options).image,
-                          render_distributed(scene, bvh, options).image,
-                          render_cone(geometry, cone_options, ConeOptions{}).render.image,
-                          render_cone(geometry, cone_options, classic).render.image};
+                          render_distributed(scene, bvh, options).image, std::move(cone),
+                          std::move(classic)};
     };
     const auto unit = render(scaled_sphere_json("1", "1"));
     for (const auto& [radius, scale] :
