@@ -2,31 +2,33 @@
 
 #include "common/error.h"
 
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <ostream>
 
 namespace mrt {
 namespace {
 
-template <typename B>
-auto& budget_field(B& b, std::string_view name) {
-    if (name == "instanced-triangles")
-        return b.instanced_triangles;
-    if (name == "instances")
-        return b.instances;
-    if (name == "procedural-triangles")
-        return b.procedural_triangles;
-    if (name == "group-nesting")
-        return b.group_nesting;
-    if (name == "octree-depth")
-        return b.octree_depth;
-    if (name == "points")
-        return b.points;
-    if (name == "pixels")
-        return b.pixels;
+/// The field of each name of kBudgetNames, in the same order.
+constexpr std::array<std::uint64_t Budgets::*, std::size(kBudgetNames)> kBudgetFields{
+    &Budgets::instanced_triangles,
+    &Budgets::instances,
+    &Budgets::procedural_triangles,
+    &Budgets::group_nesting,
+    &Budgets::octree_depth,
+    &Budgets::points,
+    &Budgets::pixels};
+
+std::uint64_t Budgets::*budget_field(std::string_view name) {
+    for (std::size_t i = 0; i < kBudgetFields.size(); ++i) {
+        if (kBudgetNames[i] == name) {
+            return kBudgetFields[i];
+        }
+    }
     std::string names;
     for (const std::string_view n : kBudgetNames) {
         if (!names.empty()) {
@@ -53,11 +55,11 @@ std::string readable_count(std::uint64_t n) {
 }  // namespace
 
 std::uint64_t& budget(Budgets& budgets, std::string_view name) {
-    return budget_field(budgets, name);
+    return budgets.*budget_field(name);
 }
 
 std::uint64_t budget(const Budgets& budgets, std::string_view name) {
-    return budget_field(budgets, name);
+    return budgets.*budget_field(name);
 }
 
 void set_budget(Budgets& budgets, std::string_view assignment) {
