@@ -149,6 +149,21 @@ constexpr int kLobePoints = 32;
 /// The lobe's value, relative to its peak, below which a light contributes no highlight.
 constexpr float kNegligibleLobe = 1e-5f;
 
+/// cos and sin of the golden-angle spiral's k-th turn, shared by both point sets: computed once
+/// instead of twice per point on every shaded fragment.
+struct Spiral {
+    std::array<float, std::max(kAreaPoints, kLobePoints)> cos{};
+    std::array<float, std::max(kAreaPoints, kLobePoints)> sin{};
+    Spiral() {
+        for (std::size_t k = 0; k < cos.size(); ++k) {
+            const double phi = kGoldenAngle * static_cast<double>(k);
+            cos[k] = static_cast<float>(std::cos(phi));
+            sin[k] = static_cast<float>(std::sin(phi));
+        }
+    }
+};
+const Spiral kSpiral;
+
 }  // namespace
 
 double area_light_projected_solid_angle(const EllipticalAreaLight& light, const Vec3f& p,
@@ -230,10 +245,9 @@ float area_light_phong_highlight(const EllipticalAreaLight& light, const Vec3f& 
     float sum = 0.0f;
     for (int k = 0; k < kAreaPoints; ++k) {
         const float radius = std::sqrt((static_cast<float>(k) + 0.5f) / kAreaPoints);
-        const double phi = kGoldenAngle * k;
-        const Vec3f q =
-            light.center + radius * (static_cast<float>(std::cos(phi)) * light.semi_axis_u +
-                                     static_cast<float>(std::sin(phi)) * light.semi_axis_v);
+        const auto i = static_cast<std::size_t>(k);
+        const Vec3f q = light.center + radius * (kSpiral.cos[i] * light.semi_axis_u +
+                                                 kSpiral.sin[i] * light.semi_axis_v);
         const Vec3f to = q - p;
         const float distance = to.norm();
         if (!(distance > 0.0f)) {
@@ -257,9 +271,8 @@ float area_light_phong_highlight(const EllipticalAreaLight& light, const Vec3f& 
         const float cos_alpha =
             std::pow((static_cast<float>(k) + 0.5f) / kLobePoints, 1.0f / (e + 1.0f));
         const float sin_alpha = std::sqrt(std::max(0.0f, 1.0f - cos_alpha * cos_alpha));
-        const double phi = kGoldenAngle * k;
-        const Vec3f w = cos_alpha * r + sin_alpha * (static_cast<float>(std::cos(phi)) * t1 +
-                                                     static_cast<float>(std::sin(phi)) * t2);
+        const auto i = static_cast<std::size_t>(k);
+        const Vec3f w = cos_alpha * r + sin_alpha * (kSpiral.cos[i] * t1 + kSpiral.sin[i] * t2);
         const float along = w.dot(facing);
         if (along == 0.0f) {
             continue;
