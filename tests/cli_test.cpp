@@ -285,22 +285,6 @@ TEST(MrtTraceCli, CropsPastedByOiiotoolAreTheFullFrame) {
 
 // ---- Hostile scenes and the --budget option ---------------------------------------------------
 
-/// Runs any tool with `arguments` (shell words), stdout and stderr together.
-TraceRun run_exe(const std::string& exe, const std::string& arguments) {
-    const std::string command = exe + " " + arguments + " 2>&1";
-    FILE* pipe = popen(command.c_str(), "r");
-    if (pipe == nullptr) {
-        return {-1, "popen failed"};
-    }
-    std::string output;
-    std::array<char, 4096> buffer{};
-    while (fgets(buffer.data(), static_cast<int>(buffer.size()), pipe) != nullptr) {
-        output += buffer.data();
-    }
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), output};
-}
-
 /// A small scene: `objects` under the camera of `resolution`, and `groups`.
 std::string small_scene(const std::string& objects, const std::string& groups = "{}",
                         const std::string& resolution = "[16, 16]") {
@@ -405,7 +389,7 @@ TEST(MrtTraceCli, GroupsNestedBeyondTheLimitAreRefusedAlikeByEveryTool) {
         EXPECT_EQ(run.output, "mrt-trace: " + message) << method;
     }
     const TraceRun preprocess =
-        run_exe(MRT_PREPROCESS_EXE, scene.string() + " -o " + (dir / "x.mrh").string());
+        run_tool(MRT_PREPROCESS_EXE, scene.string() + " -o " + (dir / "x.mrh").string());
     EXPECT_EQ(preprocess.exit_code, 1);
     EXPECT_EQ(preprocess.output, "mrt-preprocess: " + message);
     EXPECT_FALSE(fs::exists(dir / "x.mrh"));
@@ -423,7 +407,7 @@ TEST(MrtTraceCli, GroupsNestedAsDeepAsAnyToolSupportsDoNotOverflowTheStack) {
         EXPECT_EQ(run.exit_code, 0) << method << ": " << run.output;
     }
     const TraceRun preprocess =
-        run_exe(MRT_PREPROCESS_EXE, scene.string() + " -o " + (dir / "x.mrh").string() + budget);
+        run_tool(MRT_PREPROCESS_EXE, scene.string() + " -o " + (dir / "x.mrh").string() + budget);
     EXPECT_EQ(preprocess.exit_code, 0) << preprocess.output;
     const TraceRun from_hierarchy =
         run_trace((dir / "x.mrh").string() + " -o " + (dir / "y.exr").string() +
@@ -444,7 +428,7 @@ TEST(MrtTraceCli, HierarchyFilesAreHeldToTheSameGroupNestingBudget) {
     const fs::path dir = temp_dir();
     const fs::path scene = write_file(dir / "chain.json", chain_scene(5));
     const fs::path hierarchy = dir / "chain.mrh";
-    ASSERT_EQ(run_exe(MRT_PREPROCESS_EXE, scene.string() + " -o " + hierarchy.string()).exit_code,
+    ASSERT_EQ(run_tool(MRT_PREPROCESS_EXE, scene.string() + " -o " + hierarchy.string()).exit_code,
               0);
     const TraceRun run = run_trace(hierarchy.string() + " -o " + (dir / "x.exr").string() +
                                    " --method cone --budget group-nesting=3");
@@ -466,14 +450,14 @@ TEST(MrtPreprocessCli, RefusesDeepJsonAndGroupChainsInOneLine) {
     const fs::path deep =
         write_file(dir / "deep.json", prefix + std::string(100'000, '[') +
                                           std::string(100'000, ']') + R"(, "objects": []})");
-    TraceRun run = run_exe(MRT_PREPROCESS_EXE, deep.string() + " -o " + (dir / "x.mrh").string());
+    TraceRun run = run_tool(MRT_PREPROCESS_EXE, deep.string() + " -o " + (dir / "x.mrh").string());
     EXPECT_EQ(run.exit_code, 1);
     EXPECT_EQ(run.output, "mrt-preprocess: " + deep.string() +
                               ": line 1, column 76 (byte 75): arrays and objects nest deeper than "
                               "64 levels (a scene needs about 10)\n");
     // 20 000 groups each instancing the next.
     const fs::path chain = write_file(dir / "chain.json", chain_scene(20'000));
-    run = run_exe(MRT_PREPROCESS_EXE, chain.string() + " -o " + (dir / "x.mrh").string());
+    run = run_tool(MRT_PREPROCESS_EXE, chain.string() + " -o " + (dir / "x.mrh").string());
     EXPECT_EQ(run.exit_code, 1);
     EXPECT_EQ(run.output, "mrt-preprocess: " + chain.string() +
                               ": /groups/g64: the scene asks for 20001 levels of group nesting, "
@@ -482,19 +466,19 @@ TEST(MrtPreprocessCli, RefusesDeepJsonAndGroupChainsInOneLine) {
     // Its budget option: both assignments apply, the scene argument stays the scene.
     const fs::path quads =
         write_file(dir / "quads.json", small_scene("[" + std::string(kQuad) + ", " + kQuad + "]"));
-    run = run_exe(MRT_PREPROCESS_EXE, "--budget instances=1 --budget instanced-triangles=100 " +
-                                          quads.string() + " -o " + (dir / "x.mrh").string());
+    run = run_tool(MRT_PREPROCESS_EXE, "--budget instances=1 --budget instanced-triangles=100 " +
+                                           quads.string() + " -o " + (dir / "x.mrh").string());
     EXPECT_EQ(run.exit_code, 1);
     EXPECT_EQ(run.output, "mrt-preprocess: " + quads.string() +
                               ": /objects: the scene asks for 2 mesh instances (groups expanded), "
                               "over the limit of 1 (raise it with --budget instances=N)\n");
-    run = run_exe(MRT_PREPROCESS_EXE, "--budget instances=2 --budget instanced-triangles=3 " +
-                                          quads.string() + " -o " + (dir / "x.mrh").string());
+    run = run_tool(MRT_PREPROCESS_EXE, "--budget instances=2 --budget instanced-triangles=3 " +
+                                           quads.string() + " -o " + (dir / "x.mrh").string());
     EXPECT_EQ(run.exit_code, 1);
     EXPECT_NE(run.output.find("4 triangles (instances expanded), over the limit of 3"),
               std::string::npos)
         << run.output;
-    run = run_exe(MRT_PREPROCESS_EXE, quads.string() + " -o x.mrh --budget nonsense=3");
+    run = run_tool(MRT_PREPROCESS_EXE, quads.string() + " -o x.mrh --budget nonsense=3");
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_EQ(count_lines(run.output), 1) << run.output;
     fs::remove_all(dir);
@@ -506,15 +490,15 @@ TEST(MrtCompareCli, HandsItsBudgetAssignmentsToEveryRun) {
         write_file(dir / "quads.json", small_scene("[" + std::string(kQuad) + ", " + kQuad + "]"));
     const std::string base = quads.string() + " --out " + (dir / "out").string() +
                              " --method whitted --reference-spp 1 --width 8 --height 8 ";
-    TraceRun run = run_exe(MRT_COMPARE_EXE, base + "--budget pixels=1000 --budget instances=1");
+    TraceRun run = run_tool(MRT_COMPARE_EXE, base + "--budget pixels=1000 --budget instances=1");
     EXPECT_EQ(run.exit_code, 1);
     EXPECT_EQ(count_lines(run.output), 1) << run.output;
     EXPECT_NE(run.output.find("2 mesh instances (groups expanded), over the limit of 1"),
               std::string::npos)
         << run.output;
-    run = run_exe(MRT_COMPARE_EXE, base + "--budget pixels=1000 --budget instances=2");
+    run = run_tool(MRT_COMPARE_EXE, base + "--budget pixels=1000 --budget instances=2");
     EXPECT_EQ(run.exit_code, 0) << run.output;
-    run = run_exe(MRT_COMPARE_EXE, base + "--budget instances=x");
+    run = run_tool(MRT_COMPARE_EXE, base + "--budget instances=x");
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_EQ(count_lines(run.output), 1) << run.output;
     fs::remove_all(dir);
