@@ -42,4 +42,12 @@ double area_light_projected_solid_angle(const EllipticalAreaLight& light, const 
 float area_light_phong_highlight(const EllipticalAreaLight& light, const Vec3f& p, const Vec3f& n,
                                  const Vec3f& wo, float exponent);
 
+/// The radiance the surface at p (unit shading normal n, unit direction to the eye wo) reflects
+/// towards the eye from `light`'s whole extent, unoccluded: the diffuse term (albedo/π times the
+/// projected solid angle) and the Phong highlight, times the light's radiance. Zero where the
+/// light gives neither. The one lighting formula of the tracers that do not sample area lights
+/// (whitted, cone), which multiply it by their own visibility.
+Rgb area_light_unoccluded(const EllipticalAreaLight& light, const Vec3f& p, const Vec3f& n,
+                          const Vec3f& wo, const Material& material, const Rgb& albedo);
+
 }  // namespace mrt

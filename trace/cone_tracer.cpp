@@ -190,17 +190,10 @@ class ConeTracer {
             // (trace/area_light.h); the shadow cone towards its centre, widened by its ellipse,
             // gives the share of it that is visible.
             const LightSample sample = sample_area_light_centre(light, p);
-            const double solid_angle = area_light_projected_solid_angle(light, p, ns);
-            const float highlight =
-                (material.specular > 0.0f).any()
-                    ? area_light_phong_highlight(light, p, ns, wo, material.phong_exponent)
-                    : 0.0f;
-            if (!(solid_angle > 0.0) && !(highlight > 0.0f)) {
+            const Rgb unoccluded = area_light_unoccluded(light, p, ns, wo, material, albedo);
+            if (!(unoccluded.maxCoeff() > 0.0f)) {
                 continue;
             }
-            const Rgb unoccluded =
-                light.radiance *
-                (albedo * static_cast<float>(solid_angle / kPi) + material.specular * highlight);
             ++work.rays.shadow;
             // A light straddling the tangent plane still gets its shadow cone towards the
             // centre, started as a grazing cone would be.

@@ -181,21 +181,16 @@ Rgb RayTree<Sampling>::direct_light(const SurfacePoint& sp, const Material& mate
             if (sp.geometric_normal.dot(centre.wi) <= 0.0f) {
                 continue;  // the shadow ray to the centre would start into the surface
             }
-            const Vec3f& n = sp.shading_normal;
-            const double solid_angle = area_light_projected_solid_angle(light, sp.position, n);
-            const float highlight =
-                (material.specular > 0.0f).any()
-                    ? area_light_phong_highlight(light, sp.position, n, wo, material.phong_exponent)
-                    : 0.0f;
-            if (!(solid_angle > 0.0) && !(highlight > 0.0f)) {
+            const Rgb unoccluded =
+                area_light_unoccluded(light, sp.position, sp.shading_normal, wo, material, albedo);
+            if (!(unoccluded.maxCoeff() > 0.0f)) {
                 continue;
             }
             ++counters.shadow;
             if (m_bvh.occluded(Ray{sp.spawn_origin(centre.wi), centre.wi, centre.distance})) {
                 continue;
             }
-            sum += light.radiance *
-                   (albedo * static_cast<float>(solid_angle / kPi) + material.specular * highlight);
+            sum += unoccluded;
         } else {
             add(sampling.area_light(light, sp.position));
         }
