@@ -1,6 +1,6 @@
 #include "preprocess/hierarchy_pack.h"
 
-#include "common/error.h"
+#include "common/system/error.h"
 
 #include <algorithm>
 #include <limits>

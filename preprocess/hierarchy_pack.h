@@ -1,13 +1,13 @@
 #pragma once
 // From the in-memory hierarchy to the records of the hierarchy file: quantizes every point and
-// vertex (common/quantization.h), lays the objects' trees one after another with their
+// vertex (common/math/quantization.h), lays the objects' trees one after another with their
 // triangles, vertices and instances, and leaves out the channels the scene's materials do not
 // need.
 
-#include "common/hierarchy_channels.h"
-#include "common/hierarchy_file.h"
-#include "common/mesh.h"
-#include "common/scene.h"
+#include "common/hierarchy/hierarchy_channels.h"
+#include "common/hierarchy/hierarchy_file.h"
+#include "common/mesh/mesh.h"
+#include "common/scene/scene.h"
 #include "preprocess/point_octree.h"
 #include "preprocess/scene_hierarchy.h"
 

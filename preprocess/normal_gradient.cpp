@@ -1,6 +1,6 @@
 #include "preprocess/normal_gradient.h"
 
-#include "common/quantization.h"
+#include "common/math/quantization.h"
 
 #include <ostream>
 #include <vector>

@@ -13,7 +13,7 @@
 // column 0 is ∂d/∂u, column 1 is ∂d/∂v. For a convex surface (curving away from its normal) G is
 // positive: a sphere of radius r with outward normals has G = I/r, since there dn = dp/r.
 
-#include "common/math.h"
+#include "common/math/math.h"
 
 #include <cmath>
 #include <iosfwd>

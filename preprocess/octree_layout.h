@@ -2,7 +2,7 @@
 // What the recursive builders of the mesh octrees and the instance trees share: the node under
 // construction, the cube of a box, and the breadth-first layout the hierarchy file stores.
 
-#include "common/math.h"
+#include "common/math/math.h"
 #include "preprocess/point_octree.h"
 
 #include <array>

@@ -1,8 +1,8 @@
 #include "preprocess/point_octree.h"
 
-#include "common/error.h"
-#include "common/progress.h"
-#include "common/texture.h"
+#include "common/system/error.h"
+#include "common/system/progress.h"
+#include "common/texture/texture.h"
 #include "preprocess/build_budget.h"
 #include "preprocess/octree_layout.h"
 #include "preprocess/surface_prefilter.h"

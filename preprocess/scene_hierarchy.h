@@ -19,9 +19,9 @@
 // points would be as coarse), and a node whose samples would be many layers of surface deep
 // (piled instances) thins them to what its voxels need. HierarchyWork counts that work.
 
-#include "common/math.h"
-#include "common/mesh.h"
-#include "common/scene.h"
+#include "common/math/math.h"
+#include "common/mesh/mesh.h"
+#include "common/scene/scene.h"
 #include "preprocess/point_octree.h"
 
 #include <cstdint>

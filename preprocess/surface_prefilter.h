@@ -4,7 +4,7 @@
 // one voxel side (σ, cut at 2.5σ) around the centre of every chosen voxel of a node's k³ grid.
 // The normal gradient is fitted to the samples' normals (preprocess/normal_gradient.h).
 
-#include "common/math.h"
+#include "common/math/math.h"
 #include "preprocess/point_octree.h"
 #include "preprocess/triangle_sampling.h"
 

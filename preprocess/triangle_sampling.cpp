@@ -1,6 +1,6 @@
 #include "preprocess/triangle_sampling.h"
 
-#include "common/random.h"
+#include "common/math/random.h"
 
 #include <cmath>
 

@@ -9,7 +9,7 @@
 // as deterministic), kept to measure what the low-discrepancy points gain
 // (docs/preprocess-sampling.md).
 
-#include "common/math.h"
+#include "common/math/math.h"
 
 #include <cstdint>
 

@@ -13,7 +13,7 @@ time and maximum resident set), with a time limit per run; the table shows CPU t
 busy machine disturbs less than wall time. Prints JSON (a list of runs) on stdout and a
 Markdown table on stderr; --out also writes the JSON to a file.
 
-Usage: scripts/bench_instances.py --preprocess build/preprocess/mrt-preprocess
+Usage: scripts/bench_instances.py --preprocess build/bin/mrt-preprocess
            [--max 1024] [--layouts overlapping,list,tree] [--timeout 600] [--out FILE]
 """
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The headline ratios of mrt-compare comparisons (results.json's "headline", computed by
-trace/headline_ratios.cpp from runs of one invocation) as markdown, beside the figures the
+trace/compare/headline_ratios.cpp from runs of one invocation) as markdown, beside the figures the
 paper reports for them: one table per comparison (results_report.py), and a summary of several
 comparisons for the top of docs/results.md:
 

@@ -30,13 +30,13 @@ def megabytes(n):
 def measure(build, scene, work):
     name = os.path.splitext(os.path.basename(scene))[0]
     mrh = os.path.join(work, name + ".mrh")
-    pre = subprocess.run([os.path.join(build, "preprocess", "mrt-preprocess"), scene, "-o", mrh,
+    pre = subprocess.run([os.path.join(build, "bin", "mrt-preprocess"), scene, "-o", mrh,
                           "--threads", "2"], capture_output=True, text=True)
     if pre.returncode != 0:
         raise RuntimeError(f"mrt-preprocess {scene}: {pre.stderr.strip()}")
     points = summary_fields(pre.stderr)
     stats_path = os.path.join(work, name + "-whitted.json")
-    trace = subprocess.run([os.path.join(build, "trace", "mrt-trace"), scene, "-o",
+    trace = subprocess.run([os.path.join(build, "bin", "mrt-trace"), scene, "-o",
                             os.path.join(work, name + ".exr"), "--method", "whitted",
                             "--width", "1", "--height", "1", "--threads", "2", "--quiet",
                             "--stats", stats_path], capture_output=True, text=True)

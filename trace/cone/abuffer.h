@@ -1,0 +1,375 @@
+#pragma once
+// The per-ray A-buffer of Wand & Straßer §4.4 (after Zwicker et al.'s surface splatting): the
+// cone tracer inserts every point and triangle intersection of one ray cone ("fragments" of
+// surface) with its weight (common/footprint/point_weight.h) and a depth tolerance interval; points whose
+// intervals overlap are one piece of surface and are averaged, the rest stay separate fragments
+// in depth order, and the fragments are alpha-blended front to back with alpha = min(1, weight
+// sum) — "any fragment in the interior of any surface has at least a weight of one. Therefore,
+// we can interpret weight sums of less than one as alpha values to blend edges."
+//
+// Hot path: one buffer per ray, fixed capacity (std::array, no allocation), cleared in O(1).
+// Invariant: fragments [0, size()) have disjoint closed intervals in increasing depth,
+// fragment[i].far < fragment[i + 1].near, so the first fragment whose far end reaches a new
+// interval is the only one that can overlap it from the front, and a merge can only ever spill
+// into the fragments behind it (the cascade).
+
+#include "common/math/math.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <concepts>
+#include <cstdint>
+#include <limits>
+#include <ostream>
+#include <span>
+#include <type_traits>
+#include <utility>
+
+namespace mrt {
+
+/// What the tracer's per-fragment attribute record must provide. A value-initialised `A{}` is
+/// the empty sum. The record decides how each field combines, so a field that must not be
+/// averaged — the normal gradient (§4.4: "use nearest neighbor sampling for the differential
+/// properties") — can keep the contributor of the largest weight by storing that weight beside
+/// it and comparing in `add` and `merge`.
+///  - `sums.add(point, weight)`: accumulate one intersection's attributes (`point` holds the
+///    point's own values, not sums) with its weight, weight > 0 and finite;
+///  - `sums.merge(other)`: add another fragment's sums (both built by `add`/`merge`);
+///  - `sums.averaged(weight_sum)`: the fragment's record as the shader reads it — averaged
+///    fields divided by `weight_sum` (> 0, the sum of the weights passed to `add`), normals
+///    renormalised, nearest-neighbour fields as they are.
+template <class A>
+concept FragmentAttributes = std::default_initializable<A> && std::copyable<A> &&
+    requires(A& sums, const A& other, float weight) {
+    { sums.add(other, weight) } -> std::same_as<void>;
+    { sums.merge(other) } -> std::same_as<void>;
+    { std::as_const(sums).averaged(weight) } -> std::convertible_to<A>;
+};
+
+/// Below this transmittance a ray counts as opaque for early termination: what lies behind can
+/// change the pixel by at most this fraction of its radiance (1e-4: under half an 8-bit step of
+/// a background up to 20× brighter than white).
+inline constexpr float kOpaqueTransmittance = 1e-4f;
+
+/// One piece of surface along a ray: the union of the depth tolerance intervals of the
+/// intersections merged into it, and their weight-summed attributes.
+template <class A>
+struct Fragment {
+    float near = 0.0f;  ///< Front of the depth interval, ray parameter t (world units along d).
+    float far = 0.0f;   ///< Back of the depth interval, ray parameter t; near ≤ far.
+    /// Σ w_i of the merged intersections (dimensionless point weights); alpha = min(1, weight).
+    float weight = 0.0f;
+    /// Σ w_i·t_i, ray parameter × weight: the weighted mean depth is weighted_depth / weight.
+    float weighted_depth = 0.0f;
+    A sums{};  ///< Σ w_i·attributes_i, as accumulated by A::add and A::merge.
+
+    /// The weighted mean depth of the intersections, ray parameter t (where to shade).
+    float depth() const { return weighted_depth / weight; }
+    /// The fragment's opacity (§4.4): its weight sum, at most one.
+    float alpha() const { return std::min(1.0f, weight); }
+};
+
+template <class A>
+std::ostream& operator<<(std::ostream& os, const Fragment<A>& f) {
+    os << "Fragment{[" << f.near << ", " << f.far << "], weight " << f.weight << ", depth "
+       << f.depth();
+    if constexpr (requires(std::ostream & o, const A& a) { o << a; }) {
+        os << ", sums " << f.sums;
+    }
+    return os << '}';
+}
+
+/// What an A-buffer did with its insertions, for the tracer's --stats (add up over rays with
+/// +=). Counts are of insert() calls unless they say fragments.
+struct ABufferStats {
+    std::uint64_t inserted = 0;  ///< Accepted insertions (valid weight, depth and tolerance).
+    std::uint64_t ignored = 0;  ///< Rejected: weight ≤ 0 or not finite, t or tolerance not finite.
+    std::uint64_t merged = 0;   ///< Insertions whose interval overlapped a fragment.
+    /// Fragments absorbed by a neighbour whose united interval grew into theirs.
+    std::uint64_t cascaded = 0;
+    /// Buffer full: merges of surfaces that did not overlap (the closest pair in depth).
+    std::uint64_t forced_merges = 0;
+    /// Buffer full: insertions dropped because they lay behind the opaque depth.
+    std::uint64_t dropped_insertions = 0;
+    /// Buffer full: fragments behind the opaque depth evicted to make room.
+    std::uint64_t evicted_fragments = 0;
+    double dropped_weight = 0.0;  ///< Σ weight of the dropped insertions and evicted fragments.
+
+    ABufferStats& operator+=(const ABufferStats& o) {
+        inserted += o.inserted;
+        ignored += o.ignored;
+        merged += o.merged;
+        cascaded += o.cascaded;
+        forced_merges += o.forced_merges;
+        dropped_insertions += o.dropped_insertions;
+        evicted_fragments += o.evicted_fragments;
+        dropped_weight += o.dropped_weight;
+        return *this;
+    }
+};
+
+inline std::ostream& operator<<(std::ostream& os, const ABufferStats& s) {
+    return os << "ABufferStats{inserted " << s.inserted << ", ignored " << s.ignored << ", merged "
+              << s.merged << ", cascaded " << s.cascaded << ", forced merges " << s.forced_merges
+              << ", dropped insertions " << s.dropped_insertions << ", evicted fragments "
+              << s.evicted_fragments << ", dropped weight " << s.dropped_weight << '}';
+}
+
+/// The outcome of front-to-back blending: Σ_i T_i·α_i·c_i and the transmittance left after the
+/// last fragment, T = Π_i (1 − α_i), for the background or the ray's continuation.
+struct CompositeResult {
+    Rgb radiance = Rgb::Zero();  ///< Blended radiance, the units shade() returns.
+    float transmittance = 1.0f;  ///< Fraction of what lies behind the fragments that shows, [0, 1].
+};
+
+inline std::ostream& operator<<(std::ostream& os, const CompositeResult& r) {
+    return os << "CompositeResult{radiance (" << r.radiance[0] << ", " << r.radiance[1] << ", "
+              << r.radiance[2] << "), transmittance " << r.transmittance << '}';
+}
+
+/// The A-buffer of one ray: at most `Capacity` fragments sorted by depth. Copying, clearing
+/// and inserting never allocate; the buffer is trivially copyable when A is.
+///
+/// Overflow (a new, non-overlapping intersection when all Capacity fragments are in use), in
+/// order of preference — the least wrong change to the composite:
+///  1. the new interval starts behind opaque_depth(): it is dropped (it could show through at
+///     most kOpaqueTransmittance);
+///  2. the last fragment starts behind opaque_depth(): it is evicted, and the new one inserted;
+///  3. otherwise the two depth-closest neighbours among the fragments and the new interval
+///     (smallest gap between intervals) merge, as if their tolerance had been larger: the
+///     error is a wrong depth order of nearby surfaces, never a lost one.
+/// Each case is counted in stats().
+template <FragmentAttributes A, int Capacity = 16>
+class ABuffer {
+    static_assert(Capacity >= 1, "an A-buffer holds at least one fragment");
+
+  public:
+    using Attributes = A;
+    using FragmentType = Fragment<A>;
+    static constexpr int kCapacity = Capacity;
+
+    /// Empties the buffer and its statistics for the next ray (O(1): the storage stays).
+    void clear() {
+        m_count = 0;
+        m_stats = {};
+    }
+
+    /// Inserts an intersection at ray parameter t with depth tolerance interval
+    /// [t − tolerance, t + tolerance] (tolerance ≥ 0 in units of t, proportional to the node's
+    /// point spacing, §4.4), weight `weight` and the intersection's own attributes. An interval
+    /// overlapping a fragment's (closed intervals: touching counts) merges into it, the united
+    /// interval absorbing the fragments behind it that it now reaches; otherwise the
+    /// intersection becomes a new fragment in depth order. Weights that are not positive and
+    /// finite, and t or tolerance that are not finite, are ignored (counted); a negative
+    /// tolerance counts as 0.
+    void insert(float t, float tolerance, float weight, const A& attributes) {
+        if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
+            !std::isfinite(tolerance)) {
+            ++m_stats.ignored;
+            return;
+        }
+        ++m_stats.inserted;
+        tolerance = std::max(tolerance, 0.0f);
+        const float lo = t - tolerance;
+        const float hi = t + tolerance;
+        // The first fragment reaching lo: the fragments before it end before the new interval.
+        int i = first_reaching(lo);
+        if (i < m_count && m_fragments[i].near <= hi) {
+            ++m_stats.merged;
+            FragmentType& f = m_fragments[i];
+            accumulate(f, t, weight, attributes);
+            f.near = std::min(f.near, lo);
+            f.far = std::max(f.far, hi);
+            cascade(i);
+            return;
+        }
+        if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes)) {
+            return;
+        }
+        FragmentType& f = open_slot(i);
+        f.near = lo;
+        f.far = hi;
+        f.weight = 0.0f;
+        f.weighted_depth = 0.0f;
+        f.sums = A{};
+        accumulate(f, t, weight, attributes);
+    }
+
+    /// The depth beyond which nothing can show any more: walking front to back with
+    /// α_i = min(1, weight_i), the far end of the first fragment after which the transmittance
+    /// Π(1 − α_j) is at most kOpaqueTransmittance; +infinity while it is not.
+    ///
+    /// Contract for early termination: an intersection whose interval starts strictly behind
+    /// it (t − tolerance > opaque_depth()) changes the composite by at most
+    /// kOpaqueTransmittance × its radiance and may be skipped — unless a later insertion
+    /// extends the opaque fragment's interval to reach it (a merge at the far end can move
+    /// opaque_depth() back), in which case skipping loses its contribution to that fragment's
+    /// average. Anything starting at or before it (in particular what overlaps the opaque
+    /// fragment and would merge into it) must still be inserted. Insertions in front can only
+    /// move it forward. O(size()).
+    float opaque_depth() const {
+        float transmittance = 1.0f;
+        for (int i = 0; i < m_count; ++i) {
+            transmittance *= 1.0f - m_fragments[i].alpha();
+            if (transmittance <= kOpaqueTransmittance) {
+                return m_fragments[i].far;
+            }
+        }
+        return std::numeric_limits<float>::infinity();
+    }
+
+    /// Front-to-back alpha blending (§4.4): result Σ_i T_i·α_i·c_i with T_0 = 1,
+    /// T_{i+1} = T_i·(1 − α_i), α_i = min(1, weight_i), stopping once T is 0. The colour c_i is
+    /// `shade(averaged, fragment)`, called front to back, where `averaged` is
+    /// fragment.sums.averaged(fragment.weight) — the weighted mean the shader needs — and
+    /// `fragment` gives the weight, the interval and the mean depth (where to shade).
+    /// Fragments behind an exactly opaque one are not shaded.
+    template <class Shade>
+    requires std::convertible_to<std::invoke_result_t<Shade&, const A&, const FragmentType&>, Rgb>
+        CompositeResult composite(Shade&& shade)
+    const {
+        CompositeResult result;
+        for (int i = 0; i < m_count && result.transmittance > 0.0f; ++i) {
+            const FragmentType& f = m_fragments[i];
+            const float alpha = f.alpha();
+            const A averaged = f.sums.averaged(f.weight);
+            const Rgb colour = shade(averaged, f);
+            result.radiance += (result.transmittance * alpha) * colour;
+            result.transmittance *= 1.0f - alpha;
+        }
+        return result;
+    }
+
+    int size() const { return m_count; }
+    bool empty() const { return m_count == 0; }
+    bool full() const { return m_count == Capacity; }
+    /// The fragments, front to back.
+    std::span<const FragmentType> fragments() const {
+        return std::span<const FragmentType>(m_fragments.data(), static_cast<std::size_t>(m_count));
+    }
+    const FragmentType& operator[](int i) const { return m_fragments[i]; }
+    /// What the insertions since the last clear() did.
+    const ABufferStats& stats() const { return m_stats; }
+
+  private:
+    /// Index of the first fragment with far ≥ lo (size() if none): far increases along the
+    /// buffer. A linear scan: at most Capacity short compares, the buffer is small and hot.
+    int first_reaching(float lo) const {
+        int i = 0;
+        while (i < m_count && m_fragments[i].far < lo) {
+            ++i;
+        }
+        return i;
+    }
+
+    static void accumulate(FragmentType& f, float t, float weight, const A& attributes) {
+        f.sums.add(attributes, weight);
+        f.weight += weight;
+        f.weighted_depth += weight * t;
+    }
+
+    /// `into` absorbs `from`'s sums, weights and interval.
+    static void absorb(FragmentType& into, const FragmentType& from) {
+        into.sums.merge(from.sums);
+        into.weight += from.weight;
+        into.weighted_depth += from.weighted_depth;
+        into.near = std::min(into.near, from.near);
+        into.far = std::max(into.far, from.far);
+    }
+
+    /// Fragment i's interval grew: absorb the fragments behind it that it now reaches. Nothing
+    /// in front can be reached — fragment i was the first to reach the new interval's front.
+    void cascade(int i) {
+        int j = i + 1;
+        while (j < m_count && m_fragments[j].near <= m_fragments[i].far) {
+            absorb(m_fragments[i], m_fragments[j]);
+            ++j;
+        }
+        const int absorbed = j - (i + 1);
+        if (absorbed > 0) {
+            m_stats.cascaded += static_cast<std::uint64_t>(absorbed);
+            erase(i + 1, absorbed);
+        }
+    }
+
+    /// Removes fragments [first, first + n), closing the gap.
+    void erase(int first, int n) {
+        std::move(m_fragments.begin() + first + n, m_fragments.begin() + m_count,
+                  m_fragments.begin() + first);
+        m_count -= n;
+    }
+
+    /// Shifts fragments [i, size()) back by one and returns the freed slot i (size() < Capacity).
+    FragmentType& open_slot(int i) {
+        std::move_backward(m_fragments.begin() + i, m_fragments.begin() + m_count,
+                           m_fragments.begin() + m_count + 1);
+        ++m_count;
+        return m_fragments[i];
+    }
+
+    /// The buffer is full and [lo, hi] overlaps nothing, lying between fragments i − 1 and i:
+    /// applies the overflow policy of the class comment. Returns true when a slot is now free
+    /// for the new fragment at index i (updated); false when the intersection was dropped or
+    /// merged.
+    bool make_room(int& i, float lo, float hi, float t, float weight, const A& attributes) {
+        const float opaque = opaque_depth();
+        if (lo > opaque) {
+            ++m_stats.dropped_insertions;
+            m_stats.dropped_weight += weight;
+            return false;
+        }
+        if (m_fragments[m_count - 1].near > opaque) {
+            // lo ≤ opaque < its near: the new fragment lies in front of it, i < m_count.
+            ++m_stats.evicted_fragments;
+            m_stats.dropped_weight += m_fragments[m_count - 1].weight;
+            --m_count;
+            return true;
+        }
+        ++m_stats.forced_merges;
+        // The new interval's gaps to its neighbours, and the smallest gap between two
+        // neighbouring fragments. A pair (j, j + 1) with i = j + 1 cannot be the closest: the
+        // new interval lies inside their gap, nearer to both.
+        const float inf = std::numeric_limits<float>::infinity();
+        const float gap_front = i > 0 ? lo - m_fragments[i - 1].far : inf;
+        const float gap_back = i < m_count ? m_fragments[i].near - hi : inf;
+        int pair = -1;
+        float pair_gap = inf;
+        for (int j = 0; j + 1 < m_count; ++j) {
+            const float gap = m_fragments[j + 1].near - m_fragments[j].far;
+            if (gap < pair_gap) {
+                pair_gap = gap;
+                pair = j;
+            }
+        }
+        if (pair >= 0 && pair_gap < std::min(gap_front, gap_back)) {
+            absorb(m_fragments[pair], m_fragments[pair + 1]);
+            erase(pair + 1, 1);
+            if (i > pair + 1) {
+                --i;
+            }
+            return true;
+        }
+        // United with a neighbour it stays clear of the other one: no cascade.
+        FragmentType& f = gap_front <= gap_back ? m_fragments[i - 1] : m_fragments[i];
+        accumulate(f, t, weight, attributes);
+        f.near = std::min(f.near, lo);
+        f.far = std::max(f.far, hi);
+        return false;
+    }
+
+    std::array<FragmentType, Capacity> m_fragments{};
+    int m_count = 0;  ///< Fragments in use, [0, Capacity].
+    ABufferStats m_stats;
+};
+
+template <class A, int Capacity>
+std::ostream& operator<<(std::ostream& os, const ABuffer<A, Capacity>& buffer) {
+    os << "ABuffer{" << buffer.size() << '/' << Capacity << " fragments";
+    for (const Fragment<A>& f : buffer.fragments()) {
+        os << "\n  " << f;
+    }
+    return os << "\n  " << buffer.stats() << '}';
+}
+
+}  // namespace mrt

@@ -1,0 +1,100 @@
+#pragma once
+// A ray cone in one space (the world, or an instance's object space) and the cone–point
+// intersection of Wand & Straßer §4.3: a surfel expressed in ray coordinates — its depth t along
+// the unit direction and its offset along the footprint's u and v axes — and weighed with the
+// footprint at the node's depth (common/footprint/point_weight.h). The ray-coordinate types here are what
+// the cone kernels (trace/cone/cone_bounds.h, trace/cone/cone_triangle.h) take.
+
+#include "common/footprint/footprint.h"
+#include "common/math/math.h"
+#include "common/footprint/point_weight.h"
+
+#include <iosfwd>
+#include <optional>
+
+namespace mrt {
+
+/// A vertex in the coordinates of a ray cone: `t` along the unit direction, `offset` along the
+/// cone's u and v axes.
+struct VertexInRayFrame {
+    float t = 0.0f;
+    Vec2f offset = Vec2f::Zero();
+};
+
+/// A bounding sphere in the coordinates of a ray cone: `t` along the unit direction from the
+/// ray's origin, `offset` along the ray's u and v axes (FootprintCone::u, v), radius in the same
+/// units.
+struct SphereInRayFrame {
+    float t = 0.0f;
+    Vec2f offset = Vec2f::Zero();
+    float radius = 0.0f;
+};
+
+std::ostream& operator<<(std::ostream& os, const SphereInRayFrame& s);
+
+struct ConeRay {
+    Vec3f origin = Vec3f::Zero();      ///< Apex of the ray's axis (this space).
+    Vec3f direction = Vec3f::UnitZ();  ///< Unit direction of the axis.
+    /// The footprint F(t) = start_dev + t·incr_dev on the orthonormal u, v of the plane
+    /// orthogonal to `direction`.
+    FootprintCone cone;
+
+    /// p in ray coordinates: depth along the direction, offset along u and v. Differences from
+    /// the origin first, so a ray far from the space's origin loses nothing more than p's own
+    /// rounding.
+    VertexInRayFrame frame_of(const Vec3f& p) const {
+        const Vec3f d = p - origin;
+        return {d.dot(direction), Vec2f(d.dot(cone.u), d.dot(cone.v))};
+    }
+
+    SphereInRayFrame sphere_of(const Vec3f& centre, float radius) const {
+        const VertexInRayFrame c = frame_of(centre);
+        return {c.t, c.offset, radius};
+    }
+};
+
+std::ostream& operator<<(std::ostream& os, const ConeRay& ray);
+
+struct ConePointHit {
+    /// Depth along the ray of the surface the point stands for: where the axis meets the
+    /// point's tangent plane (Zwicker et al.'s ray–splat intersection), blended towards the
+    /// point's own depth, its projection onto the axis (§4.3), as the plane turns edge-on
+    /// (|n·d| from 0.3 down to 0.1). The points of one surface then agree on its depth at the
+    /// axis, so a fragment's mean depth lies on the surface, not off it by a footprint's slope.
+    float t = 0.0f;
+    float weight = 0.0f;  ///< point_weight: the A-buffer's weight.
+};
+
+/// The surfel at `position` (on the surface: common/hierarchy/hierarchy_file.h point_position) with unit
+/// `normal` and decoded `coverage`, weighed with `frame` (point_weight_frame of the footprint
+/// at the node's depth and its spacing); nothing when it lies before t_min or outside the clip.
+inline std::optional<ConePointHit> intersect_cone_point(const ConeRay& ray,
+                                                        const PointWeightFrame& frame,
+                                                        const Vec3f& position, const Vec3f& normal,
+                                                        float coverage, float t_min) {
+    const VertexInRayFrame p = ray.frame_of(position);
+    if (!(p.t >= t_min)) {
+        return std::nullopt;
+    }
+    const float cosine = normal.dot(ray.direction);
+    const float weight = point_weight(frame, p.offset, cosine, coverage);
+    if (!(weight > 0.0f)) {
+        return std::nullopt;
+    }
+    // The tangent plane n·(x − p) = 0 meets the axis o + t·d at t = p.t + (n_uv·offset)/(n·d).
+    const float c = std::abs(cosine);
+    float t = p.t;
+    if (c > 0.1f) {
+        const float plane =
+            p.t + (normal.dot(ray.cone.u) * p.offset.x() + normal.dot(ray.cone.v) * p.offset.y()) /
+                      cosine;
+        const float s = std::min(1.0f, (c - 0.1f) / 0.2f);
+        t = p.t + s * s * (3.0f - 2.0f * s) * (plane - p.t);
+    }
+    if (!(t >= t_min)) {
+        return std::nullopt;
+    }
+    return ConePointHit{t, weight};
+}
+
+}  // namespace mrt

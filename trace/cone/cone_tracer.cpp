@@ -1,0 +1,479 @@
+#include "trace/cone/cone_tracer.h"
+
+#include "trace/render/camera_rays.h"
+#include "common/footprint/footprint.h"
+#include "common/footprint/point_weight.h"
+#include "trace/cone/abuffer.h"
+#include "trace/render/area_light.h"
+#include "trace/cone/cone_surface.h"
+#include "trace/render/film.h"
+#include "trace/render/pixel_filter.h"
+#include "trace/render/shading.h"
+
+#include <tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <limits>
+#include <mutex>
+#include <thread>
+
+namespace mrt {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// How far past its start a cone leaving a surface is still taken to see that surface: half the
+/// clip radius of its widened Gaussian over the sine of its elevation above the tangent plane,
+/// never below a tenth (grazing cones would otherwise start arbitrarily far out). The rays the
+/// cone stands for start all over its footprint on the surface, not at its apex, and the surface
+/// itself is skipped by the traversal's own test; a larger clearance only skips what stands next
+/// to the surface. At 1.5 clip radii a shadow cone from an out-of-focus fragment (a wide start)
+/// started beyond the sphere beside it and lit its shadow: depth of field's RMSE was 0.0379,
+/// at 0.5 it is 0.0263 (docs/cone-tracer.md).
+constexpr float kSelfIntersectionFactor = 0.5f;
+constexpr float kMinimumElevation = 0.1f;
+/// The same for shadow cones, which start from the fragment's mean depth with no allowance for
+/// its depth interval. Anything they skip near their start is an occluder they miss: with the
+/// secondary cones' clearance plus the interval, a shadow cone from a floor beside a sphere
+/// standing on it started inside the sphere and saw a light shut in it (mean 0.176 against
+/// 0.117 at 32², 0.121 with this). The surface a cone leaves is skipped by the traversal itself.
+constexpr float kShadowSelfIntersectionFactor = 0.02f;
+
+/// Branches whose contribution to the pixel is below this are not traced (as the baselines').
+constexpr float kMinimumWeight = 1.0f / 2550.0f;
+
+float start_clearance(const Mat2f& start_footprint, float elevation, float half_interval,
+                      float factor = kSelfIntersectionFactor) {
+    const float radius = std::sqrt(FootprintCone::ellipse_of(start_footprint).major);
+    return factor * std::sqrt(kPointWeightClipExponent) * radius /
+               std::max(std::abs(elevation), kMinimumElevation) +
+           half_interval;
+}
+
+/// The narrowest primary cone, radians: some hundred float roundings of a direction, far below
+/// any pixel of a real image (a 512-pixel frame of 42° has 1.4e-3 rad per pixel).
+constexpr float kMinimumSpread = 1e-5f;
+
+/// The widest primary cone, radians: beyond a few degrees the cone's first-order footprint no
+/// longer describes what its pixel sees (a 1×1 image of a 42° frame gave 0.157 against the
+/// frame's mean 0.296), so such a pixel is traced as a grid of narrower cones.
+constexpr float kMaximumPrimaryAngle = 0.035f;
+
+/// How a pixel is split into sub-cones: `cells` × `cells` over the filter's support
+/// [−radius, radius]², each cell `cell` pixels wide with the cone width `scale` of its box.
+struct PrimarySplit {
+    int cells = 1;
+    float radius = 0.0f;
+    float cell = 1.0f;
+    float scale = 1.0f;
+};
+
+PrimarySplit primary_split(const CameraRays& camera, const PixelFilter& filter, float scale) {
+    const float step = std::max(camera.pixel_step_x().norm(), camera.pixel_step_y().norm());
+    // The angle of the pixel at the image centre, in the cone's own units of width.
+    const float angle = 2.0f * std::atan(0.5f * step) * scale;
+    PrimarySplit split;
+    if (!(angle > kMaximumPrimaryAngle)) {
+        return split;
+    }
+    split.radius = filter.radius;
+    const float support = 2.0f * filter.radius;
+    split.cells = static_cast<int>(
+        std::min(64.0f, std::ceil(support * angle / (scale * kMaximumPrimaryAngle))));
+    split.cell = support / static_cast<float>(split.cells);
+    split.scale = cone_pixel_scale(PixelFilter::box()) * split.cell;
+    return split;
+}
+
+/// Per-thread accumulators.
+struct ConeWork {
+    ConeRenderStats stats;
+    RayCounters rays;
+};
+
+class ConeTracer {
+  public:
+    ConeTracer(const ConeGeometry& geometry, const ConeTraversalOptions& options, int max_depth,
+               const std::atomic<bool>* stop)
+        : m_scene(geometry.scene()), m_traversal(geometry, options, stop), m_max_depth(max_depth) {}
+
+    enum class Kind { Primary, Secondary };
+
+    Rgb radiance(const ConeRay& ray, float t_min, int depth, float weight, Kind kind,
+                 ConeWork& work) const {
+        ABuffer<ConeSurface> buffer;
+        const auto start = Clock::now();
+        ConeTraversalStats& stats =
+            kind == Kind::Primary ? work.stats.primary : work.stats.secondary;
+        m_traversal.trace(ray, t_min, std::numeric_limits<float>::infinity(), buffer, stats);
+        stats.abuffer += buffer.stats();
+        const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        (kind == Kind::Primary ? work.stats.primary_seconds : work.stats.secondary_seconds) +=
+            seconds;
+        const CompositeResult result =
+            buffer.composite([&](const ConeSurface& surface, const Fragment<ConeSurface>& f) {
+                return shade(surface, f, ray, depth, weight * f.alpha(), work);
+            });
+        return result.radiance + result.transmittance * m_scene.background;
+    }
+
+  private:
+    /// The footprint of `ray` at depth t as a ray differential on the surface with unit normal
+    /// n: its columns projected along the ray onto the tangent plane (Igehy's transfer), and
+    /// the directional differentials (for a blurred cone, of the convolved footprint).
+    static RayDifferential at_surface(const ConeRay& ray, float t, const Vec3f& n) {
+        const FootprintCone& cone = ray.cone;
+        const Mat2f footprint = cone.at(t);
+        Mat2f growth = cone.incr_dev;
+        if (cone.blurred) {
+            const float step = 0.01f * std::max(t, 1e-6f);
+            growth = (cone.at(t + step) - footprint) / step;
+        }
+        const Mat32f position = cone.basis() * footprint;
+        const Mat32f direction = cone.basis() * growth;
+        RayDifferential rd;
+        rd.dp_dx = position.col(0);
+        rd.dp_dy = position.col(1);
+        rd.dd_dx = direction.col(0);
+        rd.dd_dy = direction.col(1);
+        return rd.transfer(ray.direction, 0.0f, n);
+    }
+
+    Rgb shade(const ConeSurface& s, const Fragment<ConeSurface>& fragment, const ConeRay& ray,
+              int depth, float weight, ConeWork& work) const {
+        const Vec3f& d = ray.direction;
+        const float t = fragment.depth();
+        const Vec3f p = ray.origin + t * d;
+        const Vec3f n = s.normal.squaredNorm() > 0.0f ? s.normal : Vec3f(-d);
+        const bool entering = n.dot(d) < 0.0f;
+        const Vec3f ns = entering ? n : Vec3f(-n);
+        const Mat3f shape = entering ? s.shape : Mat3f(-s.shape);
+        const float half_interval = 0.5f * (fragment.far - fragment.near);
+        const RayDifferential at_hit = at_surface(ray, t, ns);
+
+        Material material;
+        material.specular = s.specular;
+        // The normals across the footprint spread the highlight: Toksvig's (2005) exponent for
+        // the length |n̄| of their mean, e·|n̄| / (|n̄| + e·(1 − |n̄|)), as mip-mapped normal
+        // maps do. A single normal for the footprint would give a detailed surface (a bunny
+        // seen from afar) one coherent highlight several times too bright where the
+        // reference sees scattered glints (measured on the paper's complex scene).
+        const float agreement = std::clamp(s.normal_length, 1e-3f, 1.0f);
+        material.phong_exponent =
+            s.phong_exponent * agreement / (agreement + s.phong_exponent * (1.0f - agreement));
+        const float local = std::max(0.0f, 1.0f - s.reflectivity - s.transparency);
+        const Rgb albedo = s.diffuse * local;
+        Rgb result = m_scene.ambient * albedo;
+
+        const Vec3f wo = -d;
+        const auto add_light = [&](const LightSample& light, const EllipticalAreaLight* area) {
+            const float cosine = ns.dot(light.wi);
+            if (cosine <= 0.0f || (light.irradiance <= 0.0f).all()) {
+                return;
+            }
+            ++work.rays.shadow;
+            const float visible = visibility(p, at_hit, light, area, cosine, work);
+            if (visible > 0.0f) {
+                result += visible * light.irradiance * cosine *
+                          phong_brdf(material, albedo, ns, light.wi, wo);
+            }
+        };
+        for (const PointLight& light : m_scene.point_lights) {
+            add_light(sample_point_light(light, p), nullptr);
+        }
+        for (const EllipticalAreaLight& light : m_scene.area_lights) {
+            // The light's whole extent gives the unoccluded irradiance and the highlight
+            // (trace/render/area_light.h); the shadow cone towards its centre, widened by its ellipse,
+            // gives the share of it that is visible.
+            const LightSample sample = sample_area_light_centre(light, p);
+            const Rgb unoccluded = area_light_unoccluded(light, p, ns, wo, material, albedo);
+            if (!(unoccluded.maxCoeff() > 0.0f)) {
+                continue;
+            }
+            ++work.rays.shadow;
+            // A light straddling the tangent plane still gets its shadow cone towards the
+            // centre, started as a grazing cone would be.
+            const float cosine = std::max(ns.dot(sample.wi), 1e-3f);
+            const float visible = visibility(p, at_hit, sample, &light, cosine, work);
+            if (visible > 0.0f) {
+                result += visible * unoccluded;
+            }
+        }
+        if (depth >= m_max_depth) {
+            return result;
+        }
+
+        const Vec3f dn_dx = shape * at_hit.dp_dx;
+        const Vec3f dn_dy = shape * at_hit.dp_dy;
+        float reflect_weight = s.reflectivity;
+        if (s.transparency > 0.0f) {
+            const float eta = entering ? 1.0f / std::max(s.ior, 1e-3f) : s.ior;
+            const float cos_i = std::min(1.0f, -d.dot(ns));
+            const float k = 1.0f - eta * eta * (1.0f - cos_i * cos_i);
+            // k = 1 − η²(1 − cos²θ) across the footprint, to first order in the pixel offset:
+            // dk = 2η²·cos θ·d(cos θ), d(cos θ) = −(dD·N + D·dN). Over the footprint's Gaussian
+            // exp(−|x|²) the share with k > 0 is ½·erfc(−k / |∇k|).
+            const float dk_dx = -2.0f * eta * eta * cos_i * (at_hit.dd_dx.dot(ns) + d.dot(dn_dx));
+            const float dk_dy = -2.0f * eta * eta * cos_i * (at_hit.dd_dy.dot(ns) + d.dot(dn_dy));
+            const float spread = std::hypot(dk_dx, dk_dy);
+            float refracted = k > 0.0f ? 1.0f : 0.0f;
+            if (spread > 0.0f && std::isfinite(spread)) {
+                refracted = 0.5f * std::erfc(-k / spread);
+            }
+            if (refracted > 1e-3f && refracted < 1.0f - 1e-3f) {
+                ++work.stats.straddled_critical_angle;
+            }
+            reflect_weight += s.transparency * (1.0f - refracted);
+            const float share = s.transparency * refracted;
+            if (share > 0.0f && weight * share >= kMinimumWeight) {
+                // Past the critical angle at the centre the refracted part leaves along the
+                // surface: the critical direction.
+                Vec3f direction =
+                    refract(d, ns, eta).value_or(Vec3f((eta * d + eta * cos_i * ns).normalized()));
+                if (direction.dot(ns) > 0.0f) {
+                    direction -= 2.0f * direction.dot(ns) * ns;
+                }
+                const RayDifferential rd = at_hit.refract(d, ns, dn_dx, dn_dy, eta);
+                result += share * secondary(p, direction, rd, ns, s.roughness, half_interval, depth,
+                                            weight * share, work);
+            }
+        }
+        if (reflect_weight > 0.0f && weight * reflect_weight >= kMinimumWeight) {
+            Vec3f r = reflect(d, ns);
+            if (r.dot(ns) < 0.0f) {
+                r -= 2.0f * r.dot(ns) * ns;
+            }
+            const RayDifferential rd = at_hit.reflect(d, ns, dn_dx, dn_dy);
+            result += reflect_weight * secondary(p, r, rd, ns, s.roughness, half_interval, depth,
+                                                 weight * reflect_weight, work);
+        }
+        return result;
+    }
+
+    Rgb secondary(const Vec3f& p, const Vec3f& direction, const RayDifferential& rd,
+                  const Vec3f& ns, float roughness, float half_interval, int depth, float weight,
+                  ConeWork& work) const {
+        ++work.rays.secondary;
+        ConeRay ray;
+        ray.origin = p;
+        ray.direction = direction;
+        ray.cone = FootprintCone::from_differential(direction, rd);
+        if (roughness > 0.0f) {
+            // The Gaussian spread of the stochastic tracers' glossy directions
+            // (gaussian_spread_direction, σ = roughness per unit distance) is exp(−|x|²/b²)
+            // with b = √2·σ·t: a radial increment.
+            ray.cone.add_blur(Mat2f::Zero(), std::sqrt(2.0f) * roughness * Mat2f::Identity());
+        }
+        const float t_min = start_clearance(ray.cone.start_dev, direction.dot(ns), half_interval);
+        return radiance(ray, t_min, depth + 1, weight, Kind::Secondary, work);
+    }
+
+    /// The transmittance of the shadow cone from the fragment at p to the light.
+    float visibility(const Vec3f& p, const RayDifferential& at_hit, const LightSample& light,
+                     const EllipticalAreaLight* area, float cosine, ConeWork& work) const {
+        ConeRay ray;
+        ray.origin = p;
+        ray.direction = light.wi;
+        FootprintCone& cone = ray.cone;
+        orthonormal_basis(light.wi, cone.u, cone.v);
+        // The hit's footprint, shrinking to nothing at the light.
+        cone.start_dev = cone.project(at_hit.dp_dx, at_hit.dp_dy);
+        cone.incr_dev = -cone.start_dev / light.distance;
+        if (area != nullptr) {
+            // The light's ellipse, from nothing at the hit; a uniform disc of radius a has
+            // the variance of the Gaussian exp(−|x|²/(a/√2)²).
+            const Mat2f ellipse = cone.project(area->semi_axis_u, area->semi_axis_v);
+            cone.add_blur(Mat2f::Zero(), ellipse / (std::sqrt(2.0f) * light.distance));
+        }
+        const float t_min =
+            std::min(start_clearance(cone.start_dev, cosine, 0.0f, kShadowSelfIntersectionFactor),
+                     0.5f * light.distance);
+        ABuffer<ConeOpacity> buffer;
+        const auto start = Clock::now();
+        m_traversal.trace(ray, t_min, light.distance * 0.999f, buffer, work.stats.shadow);
+        work.stats.shadow.abuffer += buffer.stats();
+        work.stats.shadow_seconds += std::chrono::duration<double>(Clock::now() - start).count();
+        return buffer
+            .composite([](const ConeOpacity&, const Fragment<ConeOpacity>&) { return Rgb::Zero(); })
+            .transmittance;
+    }
+
+    const Scene& m_scene;
+    ConeTraversal m_traversal;
+    int m_max_depth;
+};
+
+/// Sets a flag after a delay, unless cancelled first: the time guard, which has to stop
+/// traversals that are already running (one pixel of classic cone tracing can take minutes).
+class Watchdog {
+  public:
+    Watchdog(double seconds, std::atomic<bool>& flag) : m_flag(flag) {
+        if (seconds > 0.0) {
+            m_thread = std::thread([this, seconds] {
+                std::unique_lock lock(m_mutex);
+                if (!m_cancel.wait_for(lock, std::chrono::duration<double>(seconds),
+                                       [this] { return m_done; })) {
+                    m_flag.store(true, std::memory_order_relaxed);
+                }
+            });
+        }
+    }
+    ~Watchdog() {
+        {
+            const std::lock_guard lock(m_mutex);
+            m_done = true;
+        }
+        m_cancel.notify_all();
+        if (m_thread.joinable()) {
+            m_thread.join();
+        }
+    }
+    Watchdog(const Watchdog&) = delete;
+    Watchdog& operator=(const Watchdog&) = delete;
+
+  private:
+    std::atomic<bool>& m_flag;
+    std::mutex m_mutex;
+    std::condition_variable m_cancel;
+    bool m_done = false;
+    std::thread m_thread;
+};
+
+}  // namespace
+
+ConeRenderStats& ConeRenderStats::operator+=(const ConeRenderStats& o) {
+    primary += o.primary;
+    secondary += o.secondary;
+    shadow += o.shadow;
+    primary_seconds += o.primary_seconds;
+    secondary_seconds += o.secondary_seconds;
+    shadow_seconds += o.shadow_seconds;
+    straddled_critical_angle += o.straddled_critical_angle;
+    pixels_done += o.pixels_done;
+    pixels += o.pixels;
+    stopped = stopped || o.stopped;
+    return *this;
+}
+
+float cone_pixel_scale(const PixelFilter& filter) {
+    if (filter.kind == PixelFilter::Kind::Gaussian) {
+        return std::sqrt(2.0f) * filter.sigma;
+    }
+    // A box of width 2r has variance r²/3 per axis; exp(−x²/s²) has s²/2.
+    return std::sqrt(2.0f / 3.0f) * filter.radius;
+}
+
+ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& options,
+                             const ConeOptions& cone_options, const std::string& label) {
+    const Scene& scene = geometry.scene();
+    const CameraRays camera(scene.camera, options.width, options.height);
+    const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
+    std::atomic<bool> stop{false};
+    const float scale = cone_pixel_scale(options.filter);
+    ConeTraversalOptions traversal = cone_options.traversal;
+    traversal.texture_footprint_scale = 1.0f / scale;
+    const ConeTracer tracer(geometry, traversal, max_depth, &stop);
+    const float aperture = scene.camera.aperture_radius;
+    const auto primary = [&](float rx, float ry, float width) {
+        ConeRay ray;
+        if (aperture > 0.0f) {
+            const Ray centre = camera.lens_ray(rx, ry, 0.5f, 0.5f);
+            ray.origin = centre.origin;
+            ray.direction = centre.direction.normalized();
+            ray.cone = FootprintCone::from_differential(
+                ray.direction, camera.lens_differential(rx, ry, 0.5f, 0.5f, width));
+        } else {
+            const Ray centre = camera.pinhole_ray(rx, ry);
+            ray.origin = centre.origin;
+            ray.direction = centre.direction.normalized();
+            ray.cone = FootprintCone::from_differential(ray.direction,
+                                                        camera.pinhole_differential(rx, ry, width));
+        }
+        // Never narrower than float positions resolve: a cone of 1e-10 rad (fov 1e-6°) weighed
+        // triangles by offsets that were rounding noise, and lost most of them (sky through the
+        // floor).
+        if (FootprintCone::ellipse_of(ray.cone.incr_dev).minor < kMinimumSpread * kMinimumSpread) {
+            ray.cone.incr_dev = FootprintCone::widened(ray.cone.incr_dev, kMinimumSpread);
+        }
+        if (aperture > 0.0f) {
+            // The aperture's cone: the lens disc at the lens, nothing in focus.
+            const float focus =
+                scene.camera.focal_distance / std::max(ray.direction.dot(camera.forward()), 1e-3f);
+            const float b = aperture / std::sqrt(2.0f);
+            ray.cone.add_blur(b * Mat2f::Identity(), (-b / focus) * Mat2f::Identity());
+        }
+        return ray;
+    };
+    const PrimarySplit split = primary_split(camera, options.filter, scale);
+    // The cone is the pixel's filter: each pixel's one sample is its value.
+    Film film(options.width, options.height, PixelFilter::box(), options.crop);
+    tbb::enumerable_thread_specific<ConeWork> work;
+    const auto start = Clock::now();
+    ConeRenderOutput out;
+    {
+        const Watchdog watchdog(cone_options.time_budget, stop);
+        out.render.rays = film.add_pass(
+            options.threads, label, options.quiet,
+            [&](int x, int y, FilmTile& tile, RayCounters& counters) {
+                ConeWork& local = work.local();
+                ++local.stats.pixels;
+                if (stop.load(std::memory_order_relaxed)) {
+                    return;
+                }
+                const float rx = static_cast<float>(x) + 0.5f;
+                const float ry = static_cast<float>(y) + 0.5f;
+                Rgb radiance = Rgb::Zero();
+                if (split.cells == 1) {
+                    ++counters.primary;
+                    radiance = tracer.radiance(primary(rx, ry, scale), 0.0f, 0, 1.0f,
+                                               ConeTracer::Kind::Primary, local);
+                } else {
+                    // A pixel wider than one cone can stand for: sub-cones on a grid over the
+                    // filter's support, weighed by the filter, each the box of its cell.
+                    float weight_sum = 0.0f;
+                    for (int j = 0; j < split.cells; ++j) {
+                        for (int i = 0; i < split.cells; ++i) {
+                            const float dx =
+                                (static_cast<float>(i) + 0.5f) * split.cell - split.radius;
+                            const float dy =
+                                (static_cast<float>(j) + 0.5f) * split.cell - split.radius;
+                            const float w = options.filter.weight(dx, dy);
+                            if (!(w > 0.0f)) {
+                                continue;
+                            }
+                            ++counters.primary;
+                            radiance +=
+                                w * tracer.radiance(primary(rx + dx, ry + dy, split.scale), 0.0f, 0,
+                                                    1.0f, ConeTracer::Kind::Primary, local);
+                            weight_sum += w;
+                        }
+                    }
+                    radiance /= weight_sum;
+                }
+                if (stop.load(std::memory_order_relaxed)) {
+                    return;  // cut short: leave the pixel empty rather than wrong
+                }
+                ++local.stats.pixels_done;
+                tile.add_sample(rx, ry, radiance);
+            });
+    }
+    out.render.image = film.image();
+    out.render.samples = 0;
+    for (const ConeWork& w : work) {
+        out.stats += w.stats;
+        out.render.rays.secondary += w.rays.secondary;
+        out.render.rays.shadow += w.rays.shadow;
+    }
+    out.stats.stopped = stop.load();
+    out.render.samples = out.stats.pixels_done;
+    out.render.spp = 1;
+    out.render.render_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    out.render.last_pass_seconds = out.render.render_seconds;
+    return out;
+}
+
+}  // namespace mrt

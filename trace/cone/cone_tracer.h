@@ -1,0 +1,83 @@
+#pragma once
+// The multi-resolution cone tracer (Wand & Straßer §4–6; methods `cone` and `cone-classic`):
+// one anisotropic Gaussian ray cone per pixel through the point hierarchy of a .mrh file
+// (trace/cone/cone_traversal.h), composited through the per-ray A-buffer (trace/cone/abuffer.h), every
+// fragment shaded with the same Phong model as the baselines (trace/render/shading.h):
+//
+// - Primary cones: zero start, the pixel's increment (the pinhole's ray differential), scaled
+//   so that the cone's Gaussian has the second moment of the reconstruction filter the
+//   reference is rendered with (box: 1/√6 of a pixel, Gaussian σ: σ·√2). Depth of field: the
+//   lens aperture's own cone, zero in the focal plane and growing linearly on both sides,
+//   convolved with the pixel cone, so the footprint never falls below the pixel's (§4.2).
+// - Shadow cones to every light, the hit's footprint shrinking to the light; for elliptical
+//   area lights convolved with the cone that grows from the hit to the light's ellipse (§4.2):
+//   soft shadows as the transmittance of one cone, no samples.
+// - Reflected and refracted cones from the footprint projected onto the tangent plane and the
+//   surface's shape operator (the surfel's fitted normal gradient, or the normal-interpolated
+//   triangle's), with Igehy's exact derivatives (common/footprint/footprint.h). Roughness widens the
+//   cone radially (blurry reflections). Where the footprint straddles the critical angle the
+//   transmitted share is split between a refracted and a totally reflected cone by the
+//   fraction of the footprint's Gaussian that refracts (the paper decides per cone by its
+//   centre; it names the blend as future work).
+//
+// Self-intersection: a cone leaving a surface starts where its own clip ellipse has cleared
+// the surface's tangent plane (the paper's "threshold ... based on the angle and the diameter
+// of the outgoing ray cone").
+//
+// Deterministic: nothing is random, every pixel is computed independently.
+
+#include "common/hierarchy/hierarchy_file.h"
+#include "common/scene/scene.h"
+#include "common/texture/texture.h"
+#include "trace/cone/cone_traversal.h"
+#include "trace/render/render.h"
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+namespace mrt {
+
+class CameraRays;
+
+struct ConeOptions {
+    ConeTraversalOptions traversal;
+    /// Seconds after which the render stops cleanly with the pixels done so far (0: no limit):
+    /// the guard of classic cone tracing, which on a detailed scene runs for hours.
+    double time_budget = 0.0;
+};
+
+/// Where the render's time went, and what its traversals did.
+struct ConeRenderStats {
+    ConeTraversalStats primary;
+    ConeTraversalStats secondary;  ///< Reflected and refracted cones.
+    ConeTraversalStats shadow;
+    /// Seconds of worker time, summed over threads: traversal of each kind; the rest of the
+    /// render (cone setup, shading, compositing) is `render_seconds · threads − these`.
+    double primary_seconds = 0.0;
+    double secondary_seconds = 0.0;
+    double shadow_seconds = 0.0;
+    std::uint64_t straddled_critical_angle = 0;  ///< Refractions split with total reflection.
+    std::uint64_t pixels_done = 0;
+    std::uint64_t pixels = 0;
+    bool stopped = false;  ///< The time budget ran out before every pixel was done.
+
+    ConeRenderStats& operator+=(const ConeRenderStats& o);
+};
+
+struct ConeRenderOutput {
+    RenderOutput render;
+    ConeRenderStats stats;
+};
+
+/// Pixel units of the primary cone's increment for the reconstruction filter: its Gaussian
+/// exp(−|x|²/s²) has the filter's variance (box of a pixel: 1/12 per axis; Gaussian: σ²).
+float cone_pixel_scale(const PixelFilter& filter);
+
+/// Renders the scene's camera with the cone tracer over `geometry` (the hierarchy file and the
+/// scene it stands for). options.width/height/threads/max_depth/quiet are read; options.filter
+/// sets the cone's width (cone_pixel_scale); one cone per pixel, at its centre.
+ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& options,
+                             const ConeOptions& cone_options, const std::string& label = "cone");
+
+}  // namespace mrt

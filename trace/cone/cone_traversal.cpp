@@ -1,0 +1,862 @@
+#include "trace/cone/cone_traversal.h"
+
+#include "common/footprint/footprint.h"
+#include "common/math/invertibility.h"
+#include "common/footprint/point_weight.h"
+#include "common/math/quantization.h"
+#include "trace/cone/cone_bounds.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <ostream>
+#include <type_traits>
+
+namespace mrt {
+
+namespace {
+
+/// The clip ellipse's radius in the units of the point weight's Gaussian (√ln 50).
+constexpr float kClipRadius = 1.977883f;
+/// A voxel centre beyond the clip ellipse by more than the largest stored surface offset can
+/// move it (a voxel side h, through G⁻¹, whose norm is at most 1/(β·h)) holds no point a cone
+/// weighs: rejected before its normal is decoded. Squared, in the Gaussian's units.
+constexpr float kCentreReachSquared =
+    (kClipRadius + 1.0f / kPointKernelRadius) * (kClipRadius + 1.0f / kPointKernelRadius);
+/// Where the tangent of the angle between a ray and a surface stops widening a point's depth
+/// tolerance: a point's own extent is half a voxel, and a wider interval from the (nearly
+/// weightless) points a closed object shows edge-on would glue its front and back into one
+/// fragment (measured on a sphere).
+constexpr float kPointToleranceTangent = 2.0f;
+/// The same for triangles: those of one plane agree on its depth at the axis
+/// (ConeTriangleHit) unless it is edge-on, where they weigh little.
+constexpr float kTriangleToleranceTangent = 2.0f;
+
+/// A node's triangles are weighed with one footprint (§5.2) while it changes by less than this
+/// fraction across the node's depths; beyond, each vertex gets the footprint at its own depth.
+constexpr float kNodeFootprintVariation = 0.1f;
+/// How much wider than the weight's reach the node's one frame culls triangles before their
+/// exact per-vertex weight: more than the footprint's kNodeFootprintVariation across a node.
+constexpr float kCullMargin = 1.25f;
+/// A cone whose apex lies within this fraction of the triangle's size (or distance) from its
+/// plane left that plane: some hundred times float rounding.
+constexpr float kCoplanarTolerance = 1e-5f;
+/// How far from the apex, in starting radii of the cone (beyond the primitive's own size), the
+/// surface a cone leaves is recognised by passing within one starting radius of the apex.
+constexpr float kNearApex = 10.0f;
+/// A point whose tangent plane passes within this many voxel sides of the apex of a cone that
+/// left a surface stands for that surface.
+constexpr float kCoplanarPoint = 0.1f;
+/// A cone whose direction makes at least this cosine with the inward normal of a closed
+/// surface's primitive enters the solid there (enters_solid).
+constexpr float kEnteringCosine = 0.1f;
+/// Per-vertex footprints need every vertex this far from the apex relative to the farthest.
+constexpr float kApexRatio = 0.25f;
+
+/// tan of the angle between the ray and the surface's plane, from |n·d| = cos of the angle to
+/// the normal: how far apart in depth two points of the surface a lateral unit apart are; at
+/// most `limit`.
+float grazing_tangent(float normal_dot_direction, float limit) {
+    const float c = std::abs(normal_dot_direction);
+    const float s = std::sqrt(std::max(0.0f, 1.0f - c * c));
+    return std::min(s / std::max(c, 1e-6f), limit);
+}
+
+/// A cone seen from one object's space, and how that space maps to the world.
+struct ConeSpace {
+    ConeRay ray;
+    float world_per_t = 1.0f;  ///< World distance along the ray per unit of this space's t.
+    Mat3f normal_to_world = Mat3f::Identity();  ///< Object normals → world (unnormalised).
+    Mat3f to_object = Mat3f::Identity();        ///< World vectors → object vectors.
+    std::uint32_t id = 0;      ///< Unique within one traversal: keys the per-vertex frame cache.
+    std::uint32_t object = 0;  ///< The object whose nodes the cone is in.
+    float start = 0.0f;        ///< How far from the apex the cone's rays start (start_radius).
+};
+
+/// How far from the apex a cone's rays start: its footprint at t = 0.
+float start_radius(const FootprintCone& cone) {
+    return std::sqrt(cone.start_dev.squaredNorm() +
+                     (cone.blurred ? cone.blur_start.squaredNorm() : 0.0f));
+}
+
+/// The cone of `parent` (in a group's space) in the space of an instance's object.
+ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f& normal_to_group) {
+    ConeSpace space;
+    const Mat3f linear = to_object.linear();
+    const Vec3f direction = linear * parent.ray.direction;
+    const float scale = direction.norm();  // object length per group length along the axis
+    space.ray.origin = to_object * parent.ray.origin;
+    space.ray.direction = direction / scale;
+    FootprintCone& cone = space.ray.cone;
+    orthonormal_basis(space.ray.direction, cone.u, cone.v);
+    // Offsets in the parent's u/v plane map by the linear part; to first order the object-space
+    // section is their projection onto the plane orthogonal to the new axis.
+    const FootprintCone& from = parent.ray.cone;
+    const Mat2f b = cone.basis().transpose() * linear * from.basis();
+    // Object t = scale · group t, so the increments per unit of t shrink by the scale.
+    cone.start_dev = b * from.start_dev;
+    cone.incr_dev = b * from.incr_dev / scale;
+    cone.blurred = from.blurred;
+    cone.blur_start = b * from.blur_start;
+    cone.blur_incr = b * from.blur_incr / scale;
+    space.start = start_radius(cone);
+    space.world_per_t = parent.world_per_t / scale;
+    space.normal_to_world = parent.normal_to_world * normal_to_group;
+    space.to_object = linear * parent.to_object;
+    return space;
+}
+
+/// The world-space shape operator of an object-space one: n_w = N·n/|N·n|, so
+/// dn_w = (I − n_w·n_wᵀ)·N·dn/|N·n| with dn = J·dp_object and dp_object = to_object·dp_w.
+Mat3f shape_to_world(const Mat3f& shape, const Vec3f& normal, const ConeSpace& space) {
+    const Vec3f m = space.normal_to_world * normal;
+    const float length = m.norm();
+    if (!(length > 0.0f)) {
+        return Mat3f::Zero();
+    }
+    const Vec3f n = m / length;
+    const Mat3f projection = Mat3f::Identity() - n * n.transpose();
+    return projection * space.normal_to_world * shape * space.to_object / length;
+}
+
+Vec3f to_vec(const std::array<float, 3>& a) {
+    return {a[0], a[1], a[2]};
+}
+
+template <class Buffer>
+class Walk {
+    static constexpr bool kShade = std::is_same_v<typename Buffer::Attributes, ConeSurface>;
+
+  public:
+    Walk(const ConeGeometry& geometry, const ConeTraversalOptions& options,
+         const std::atomic<bool>* stop, Buffer& buffer, ConeTraversalStats& stats, float t_min,
+         float t_max)
+        : m_geometry(geometry),
+          m_view(geometry.view()),
+          m_options(options),
+          m_stop(stop),
+          m_buffer(buffer),
+          m_stats(stats),
+          m_t_min(t_min),
+          m_t_max(t_max) {}
+
+    void object(ConeSpace& space, std::uint32_t index, float weight) {
+        const HierarchyObject& object = m_view.objects[index];
+        space.object = index;
+        visit(space, object.first_node, weight, false);
+    }
+
+  private:
+    /// What one node looks like through the cone.
+    struct Look {
+        SphereInRayFrame sphere;
+        Mat2f footprint;          ///< Clamped footprint at the node's depth.
+        SymmetricEigen2 ellipse;  ///< Its ellipse: the node's one decomposition (§5.2).
+        float t_min = 0.0f;
+        float t_max = 0.0f;
+    };
+
+    float spacing(const HierarchyNode& node) const {
+        return node.side / static_cast<float>(m_view.grid);
+    }
+
+    /// Steps 1 and the early termination: false when the cone cannot reach the node.
+    bool look(const ConeSpace& space, const HierarchyNode& node, Look& look) {
+        if (m_stop != nullptr && m_stop->load(std::memory_order_relaxed)) {
+            return false;
+        }
+        ++m_stats.spheres_tested;
+        look.t_min = m_t_min / space.world_per_t;
+        look.t_max = m_t_max / space.world_per_t;
+        look.sphere = space.ray.sphere_of(to_vec(node.sphere_centre), node.sphere_radius);
+        const FootprintCone& cone = space.ray.cone;
+        const float widening = kPointKernelRadius * spacing(node);
+        if (!cone_circle_may_touch_sphere(look.sphere, cone, m_options.max_anisotropy, widening,
+                                          look.t_min, look.t_max)) {
+            return false;
+        }
+        if ((look.sphere.t - look.sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
+            ++m_stats.culled_by_opacity;
+            return false;
+        }
+        // The node's one decomposition (§5.2) gives the sphere test's axes too.
+        const float t = std::clamp(look.sphere.t, look.t_min, look.t_max);
+        const Mat2f footprint = cone.at(t);
+        look.ellipse = FootprintCone::ellipse_of(footprint);
+        if (!cone_rectangle_may_touch_sphere(look.sphere, cone, m_options.max_anisotropy, widening,
+                                             look.t_min, look.t_max, look.ellipse.major_axis)) {
+            return false;
+        }
+        ++m_stats.nodes_visited;
+        look.footprint =
+            FootprintCone::clamp_decomposed(footprint, m_options.max_anisotropy, look.ellipse);
+        return true;
+    }
+
+    /// Steps 2 and 3 at one node. `finer`: the node stands one level below its parent's
+    /// points in their level blend, so its own points are used whatever the footprint, or where
+    /// it has none (a mesh leaf, an instance-tree node over one instance) everything below it
+    /// at whatever level the cone chooses there.
+    void visit(const ConeSpace& space, std::uint32_t index, float weight, bool finer) {
+        const HierarchyNode& node = m_view.nodes[index];
+        Look l;
+        if (!look(space, node, l)) {
+            return;
+        }
+        triangles(space, index, l, weight);
+        if (m_options.points && node.point_count > 0) {
+            if (finer) {
+                points(space, index, l, weight);
+                return;
+            }
+            const float h = spacing(node);
+            const float min_diameter = 2.0f * std::sqrt(l.ellipse.minor);
+            if (h <= min_diameter) {
+                const float coarse = m_options.blend_levels
+                                         ? std::clamp(std::log2(min_diameter / h), 0.0f, 1.0f)
+                                         : 1.0f;
+                points(space, index, l, weight * coarse);
+                if (coarse < 1.0f) {
+                    below(space, node, weight * (1.0f - coarse), true);
+                }
+                return;
+            }
+        }
+        below(space, node, weight, false);
+    }
+
+    /// The children, nearest first (early termination culls more behind a near surface), and
+    /// the instances a group node holds.
+    void below(const ConeSpace& space, const HierarchyNode& node, float weight, bool finer) {
+        if (node.child_mask != 0) {
+            std::array<std::pair<float, std::uint32_t>, 8> order;
+            int count = 0;
+            for (int c = 0; c < 8; ++c) {
+                if ((node.child_mask & (1u << c)) == 0) {
+                    continue;
+                }
+                const std::uint32_t child = node.first_child + static_cast<std::uint32_t>(count);
+                const HierarchyNode& n = m_view.nodes[child];
+                const float t = space.ray.frame_of(to_vec(n.sphere_centre)).t - n.sphere_radius;
+                int i = count++;
+                for (; i > 0 && order[static_cast<std::size_t>(i - 1)].first > t; --i) {
+                    order[static_cast<std::size_t>(i)] = order[static_cast<std::size_t>(i - 1)];
+                }
+                order[static_cast<std::size_t>(i)] = {t, child};
+            }
+            for (int i = 0; i < count; ++i) {
+                const std::uint32_t child = order[static_cast<std::size_t>(i)].second;
+                visit(space, child, weight, finer);
+            }
+        }
+        for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
+             ++i) {
+            ++m_stats.instances_entered;
+            ConeSpace inner = enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i));
+            inner.id = ++m_spaces;
+            object(inner, m_view.instances[i].object, weight);
+        }
+    }
+
+    /// The Gaussian frame of the (clamped) footprint at a vertex's depth. A vertex is shared by
+    /// about six triangles, which a cone meets together: a small direct-mapped cache keyed by
+    /// the vertex and the space saves most of the decompositions.
+    GaussianFrame vertex_frame(const ConeSpace& space, std::uint32_t vertex, float t) {
+        const std::size_t slot = vertex % kFrameCacheSize;
+        FrameCacheEntry& entry = m_frame_cache[slot];
+        if (entry.vertex != vertex || entry.space != space.id) {
+            entry.vertex = vertex;
+            entry.space = space.id;
+            entry.frame = GaussianFrame::of(
+                FootprintCone::clamp_anisotropy(space.ray.cone.at(t), m_options.max_anisotropy));
+        }
+        return entry.frame;
+    }
+
+    /// Whether a shadow cone goes into the solid bounded by `closed` (nullptr: an open surface)
+    /// through a primitive with normal `normal` (its winding's, or a point's, which is outward
+    /// for a closed object's points): clearly against the outward normal. The surface a shadow
+    /// cone leaves faces along it; its neighbours on a curved solid may face a little away,
+    /// hence the margin. Such a primitive is an occluder, never the surface the cone started
+    /// on. (A refracted cone does enter the solid whose surface it leaves.)
+    static bool enters_solid(const ConeSpace& space, const ClosedSurface* closed,
+                             const Vec3f& normal) {
+        return !kShade && closed != nullptr &&
+               closed->outward * normal.dot(space.ray.direction) < -kEnteringCosine * normal.norm();
+    }
+
+    /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
+    /// a cone leaving it starts on: its plane passes within `tolerance` of the apex — or within
+    /// the cone's own starting radius when the primitive is near the apex, so a curved
+    /// surface's neighbouring triangles and points, below the start's resolution, are not
+    /// taken for occluders either.
+    static bool leaves(const ConeSpace& space, const Vec3f& position, const Vec3f& normal,
+                       float tolerance, float size, bool near_apex = true) {
+        const Vec3f apart = space.ray.origin - position;
+        const float distance = std::abs(normal.dot(apart));
+        if (distance <= tolerance) {
+            return true;
+        }
+        if (!near_apex) {
+            return false;
+        }
+        const float near = size + kNearApex * space.start;
+        return distance <= space.start && apart.squaredNorm() <= near * near;
+    }
+
+    /// Whether a cluster's sphere may hold something within `reach` of the axis (a circle
+    /// around the clip ellipse) between the look's depths.
+    /// `centre` receives the sphere's centre in the ray's frame.
+    template <class Sphere>
+    static bool may_hold(const ConeSpace& space, const Sphere& sphere, const Look& l, float reach,
+                         VertexInRayFrame& centre) {
+        centre = space.ray.frame_of(to_vec(sphere.centre));
+        if (centre.t + sphere.radius < l.t_min || centre.t - sphere.radius > l.t_max) {
+            return false;
+        }
+        const float r = reach + sphere.radius;
+        return !(centre.offset.squaredNorm() > r * r);
+    }
+    template <class Sphere>
+    static bool may_hold(const ConeSpace& space, const Sphere& sphere, const Look& l, float reach) {
+        VertexInRayFrame centre;
+        return may_hold(space, sphere, l, reach, centre);
+    }
+
+    void points(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
+        const HierarchyNode& node = m_view.nodes[index];
+        if (!(weight > 0.0f)) {
+            return;
+        }
+        ++m_stats.point_nodes;
+        m_stats.level_sum += static_cast<double>(weight) * node.level;
+        m_stats.level_weight += weight;
+        const float h = spacing(node);
+        const PointWeightFrame frame = point_weight_frame(l.footprint, h);
+        const Vec3f origin = to_vec(node.origin);
+        // The widening adds (β·h)² to both eigenvalues.
+        const float widening = kPointKernelRadius * h;
+        const float clip_reach =
+            std::sqrt(kPointWeightClipExponent * (l.ellipse.major + widening * widening));
+        // A solid seen from outside: its points facing away from the apex stand for its back.
+        const ClosedSurface* closed = nullptr;
+        if (m_options.cull_closed_back_faces) {
+            closed = m_geometry.closed_surfaces().of_object(space.object);
+            if (closed != nullptr && !closed->seen_from_outside(space.ray.origin, space.start)) {
+                closed = nullptr;
+            }
+        }
+        // In the Gaussian's units a cluster's sphere (around its points' positions, which lie
+        // within half a voxel of their voxels' centres) stretches by at most ‖G⁻¹‖ (bounded by
+        // the Frobenius norm): the circle around the clip ellipse passes a long thin cone's
+        // clusters along its minor axis, this test does not.
+        const float stretch = frame.inverse.norm();
+        const float centre_reach = std::sqrt(kCentreReachSquared);
+        const ConeNodeClusters& clusters = m_geometry.clusters(index);
+        for (std::uint32_t c = clusters.first_point_cluster;
+             c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
+            const ConeCluster& cluster = m_geometry.point_cluster(c);
+            VertexInRayFrame centre;
+            if (!may_hold(space, cluster, l, clip_reach, centre)) {
+                continue;
+            }
+            const float reach = centre_reach + (cluster.radius + 0.5f * h) * stretch;
+            if (!((frame.inverse * centre.offset).squaredNorm() <= reach * reach)) {
+                continue;
+            }
+            for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
+                point(space, node, m_geometry.point_order(j), frame, l, origin, h, weight, closed);
+            }
+        }
+    }
+
+    void point(const ConeSpace& space, const HierarchyNode& node, std::uint32_t i,
+               const PointWeightFrame& frame, const Look& l, const Vec3f& origin, float h,
+               float weight, const ClosedSurface* closed) {
+        ++m_stats.points_tested;
+        const PointCore& core = m_view.core[i];
+        const PointOffset offset = m_view.offset[i];
+        const Vec3f centre = decode_voxel(core.voxel, origin, node.side, m_view.grid);
+        if (!((frame.inverse * space.ray.frame_of(centre).offset).squaredNorm() <=
+              kCentreReachSquared)) {
+            return;
+        }
+        const Vec3f normal = decode_normal(core.normal);
+        const Vec3f position = point_position(centre, h, normal, offset);
+        if (closed != nullptr &&
+            closed->back_facing(position, normal, space.ray.origin, space.start)) {
+            ++m_stats.back_faces_culled;
+            return;
+        }
+        if (l.t_min > 0.0f &&
+            !enters_solid(space, m_geometry.closed_surfaces().of_object(space.object), normal) &&
+            leaves(space, position, normal, kCoplanarPoint * h, 2.0f * h)) {
+            // As for triangles: the surface a cone leaves is not met again by the points that
+            // stand for it (a coarse level's points reach far across the start).
+            return;
+        }
+        const auto hit = intersect_cone_point(space.ray, frame, position, normal,
+                                              decode_coverage8(core.coverage), l.t_min);
+        if (!hit || hit->t > l.t_max) {
+            return;
+        }
+        ++m_stats.points_hit;
+        // Points of one surface agree on its depth at the axis (their tangent planes':
+        // ConePointHit), up to the curvature across the footprint; half a voxel, more where the
+        // surface is slanted, keeps a closed object's front and back (a few voxels apart at the
+        // level its cone uses) in fragments of their own.
+        const float tolerance = 0.5f * h *
+                                (1.0f + 0.5f * grazing_tangent(normal.dot(space.ray.direction),
+                                                               kPointToleranceTangent));
+        if constexpr (kShade) {
+            m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
+                            weight * hit->weight, point_surface(space, i, normal));
+        } else {
+            m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
+                            weight * hit->weight, {});
+        }
+    }
+
+    ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {
+        ConeSurface s;
+        s.normal = (space.normal_to_world * normal).normalized();
+        s.diffuse = decode_rgb8(m_view.diffuse[i].rgb);
+        if (!m_view.specular.empty()) {
+            s.specular = decode_rgb8(m_view.specular[i].rgb);
+            s.phong_exponent = decode_phong8(m_view.specular[i].phong);
+        }
+        if (!m_view.refraction.empty()) {
+            s.transparency = decode_unit8(m_view.refraction[i].transparency);
+            s.ior = decode_ior8(m_view.refraction[i].ior);
+        }
+        if (!m_view.mirror.empty()) {
+            const PointMirror& mirror = m_view.mirror[i];
+            s.reflectivity = decode_unit8(mirror.reflectivity);
+            s.roughness = decode_unit8(mirror.roughness);
+            if (s.reflectivity > 0.0f || s.transparency > 0.0f) {
+                // The gradient's columns are ∂n/∂u, ∂n/∂v in the tangent frame (t_u, t_v).
+                const Vec3f tu = decode_tangent(mirror.tangent_angle, normal);
+                const Vec3f tv = normal.cross(tu);
+                const Mat2f g = decode_gradient(mirror.gradient);
+                Mat32f frame;
+                frame.col(0) = tu;
+                frame.col(1) = tv;
+                const Mat3f shape = frame * g * frame.transpose();
+                s.shape = shape_to_world(shape, normal, space);
+            }
+        }
+        return s;
+    }
+
+    void triangles(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
+        const HierarchyNode& node = m_view.nodes[index];
+        if (node.triangle_count == 0 || !(weight > 0.0f)) {
+            return;
+        }
+        const GaussianFrame node_frame = GaussianFrame::of_ellipse(l.ellipse);
+        std::array<GaussianFrame, 3> frames{node_frame, node_frame, node_frame};
+        const float radius = std::sqrt(l.ellipse.major);
+        // One frame for the node only where the footprint hardly changes across it: a large
+        // node near a cone's apex (a floor's triangles kept high in the tree, seen by a cone
+        // leaving that floor) would otherwise weigh its near triangles with the far footprint.
+        const FootprintCone& cone = space.ray.cone;
+        const float growth = cone.incr_dev.norm() + (cone.blurred ? cone.blur_incr.norm() : 0.0f);
+        const bool varies =
+            !(2.0f * l.sphere.radius * growth <= kNodeFootprintVariation * l.footprint.norm());
+        const bool per_vertex = !m_options.node_frames;
+        // Where the weight can reach, in Gaussian units (cone_triangle.cpp's box test) times
+        // the footprint's largest semi-axis; with per-vertex frames the largest over the
+        // node's depths (the Frobenius norm bounds it, and it is convex in t).
+        const float units = triangle_clip_radius(m_options.triangle_weight);
+        float reach = (per_vertex ? kCullMargin : 1.0f) * units * radius;
+        if (varies) {
+            const float near = std::max(l.sphere.t - l.sphere.radius, l.t_min);
+            const float far = std::min(l.sphere.t + l.sphere.radius, l.t_max);
+            reach = units * std::sqrt(std::max(space.ray.cone.at(near).squaredNorm(),
+                                               space.ray.cone.at(far).squaredNorm()));
+        }
+        const ConeNodeClusters& clusters = m_geometry.clusters(index);
+        for (std::uint32_t c = clusters.first_triangle_cluster;
+             c < clusters.first_triangle_cluster + clusters.triangle_cluster_count; ++c) {
+            const ConeCluster& cluster = m_geometry.triangle_cluster(c);
+            VertexInRayFrame centre;
+            if (!may_hold(space, cluster, l, reach, centre)) {
+                continue;
+            }
+            float cluster_radius = radius;
+            if (varies) {
+                // The node's one footprint would be wrong across it: one per cluster instead
+                // (a cluster is a few triangles across).
+                SymmetricEigen2 ellipse;
+                FootprintCone::clamp_anisotropy(cone.at(std::clamp(centre.t, l.t_min, l.t_max)),
+                                                m_options.max_anisotropy, ellipse);
+                const GaussianFrame frame = GaussianFrame::of_ellipse(ellipse);
+                frames = {frame, frame, frame};
+                cluster_radius = std::sqrt(ellipse.major);
+            }
+            // The circle around the cull's ellipse (of the frame the triangle loop culls with).
+            const float triangle_reach = (per_vertex ? kCullMargin : 1.0f) * units * cluster_radius;
+            for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
+                if (!may_hold(space, m_geometry.triangle_bound(j), l, triangle_reach)) {
+                    continue;
+                }
+                triangle(space, m_geometry.triangle_order(j), l, per_vertex, frames, cluster_radius,
+                         weight);
+            }
+        }
+    }
+
+    void triangle(const ConeSpace& space, std::uint32_t triangle, const Look& l, bool per_vertex,
+                  const std::array<GaussianFrame, 3>& frames, float radius, float weight) {
+        {
+            ++m_stats.triangles_tested;
+            const auto& tri = m_view.triangles[triangle];
+            std::array<Vec3f, 3> p;
+            std::array<VertexInRayFrame, 3> vertices;
+            for (std::size_t i = 0; i < 3; ++i) {
+                p[i] = to_vec(m_view.vertex_positions[tri[i]]);
+                vertices[i] = space.ray.frame_of(p[i]);
+            }
+            if (std::max({vertices[0].t, vertices[1].t, vertices[2].t}) < l.t_min ||
+                std::min({vertices[0].t, vertices[1].t, vertices[2].t}) > l.t_max) {
+                return;
+            }
+            const Vec3f winding = (p[1] - p[0]).cross(p[2] - p[0]);
+            if (m_options.cull_closed_back_faces) {
+                const ClosedSurface* closed = m_geometry.closed_surfaces().of_triangle(triangle);
+                if (closed != nullptr && closed->seen_from_outside(space.ray.origin, space.start) &&
+                    closed->back_facing(p[0], winding, space.ray.origin, space.start)) {
+                    ++m_stats.back_faces_culled;
+                    return;
+                }
+            }
+            if (per_vertex) {
+                // Culled with the node's (or cluster's) one frame, a margin wider than the
+                // footprint changes across the node; weighed with each vertex's own, so that
+                // the triangles around a shared edge weigh exactly 1 together wherever they
+                // are kept.
+                const float reach = kCullMargin * triangle_clip_radius(m_options.triangle_weight);
+                for (int axis = 0; axis < 2; ++axis) {
+                    float lo = std::numeric_limits<float>::infinity();
+                    float hi = -lo;
+                    for (std::size_t i = 0; i < 3; ++i) {
+                        const float y = frames[i].map(vertices[i].offset)[axis];
+                        lo = std::min(lo, y);
+                        hi = std::max(hi, y);
+                    }
+                    if (lo > reach || hi < -reach) {
+                        return;
+                    }
+                }
+            }
+            if (l.t_min > 0.0f || space.start == 0.0f) {
+                // A cone leaving a surface starts on it: the flat surface it leaves (every
+                // triangle of a floor, coplanar with the apex) cannot be met again, whatever
+                // its footprint makes of the triangles around the start. A cone from a point
+                // (a pinhole's) sees a plane through its apex edge-on from every ray: a
+                // zero-area surface, which covers nothing (an eye at a floor's height drew it
+                // as slabs over the sky, from hits at t ≈ 0 of no meaningful footprint).
+                const Vec3f edge1 = p[1] - p[0];
+                const Vec3f edge2 = p[2] - p[0];
+                const Vec3f& normal = winding;
+                const float length = normal.norm();
+                const float size = std::sqrt(std::max(edge1.squaredNorm(), edge2.squaredNorm()));
+                const float scale =
+                    std::sqrt(std::max(size * size, (p[0] - space.ray.origin).squaredNorm()));
+                // A cone entering a solid through the triangle has not left it: only the
+                // exactly coplanar test applies (a cone from a floor towards a light shut in a
+                // sphere standing on it meets the sphere's bottom within its start radius).
+                const bool entering = enters_solid(
+                    space, m_geometry.closed_surfaces().of_triangle(triangle), normal / length);
+                if (length > 0.0f && leaves(space, p[0], normal / length,
+                                            kCoplanarTolerance * scale, 2.0f * size, !entering)) {
+                    return;
+                }
+            }
+            std::array<GaussianFrame, 3> exact;
+            if (per_vertex) {
+                // A triangle reaching back towards the cone's apex (a floor running under the
+                // camera) has no meaningful footprint at its near vertices: it keeps the
+                // cull's frame.
+                const float nearest = std::min({vertices[0].t, vertices[1].t, vertices[2].t});
+                const float farthest = std::max({vertices[0].t, vertices[1].t, vertices[2].t});
+                per_vertex = nearest > kApexRatio * farthest && nearest > l.t_min;
+                for (std::size_t i = 0; per_vertex && i < 3; ++i) {
+                    exact[i] = vertex_frame(space, tri[i], vertices[i].t);
+                }
+            }
+            const auto hit = intersect_cone_triangle(vertices, per_vertex ? exact : frames,
+                                                     m_options.triangle_weight, l.t_min);
+            if (!hit || hit->t < l.t_min || hit->t > l.t_max) {
+                return;
+            }
+            ++m_stats.triangles_hit;
+            const Vec3f geometric = winding.normalized();
+            // The depths a flat surface spans across the footprint.
+            const float tolerance =
+                radius * (0.5f + grazing_tangent(geometric.dot(space.ray.direction),
+                                                 kTriangleToleranceTangent));
+            if constexpr (kShade) {
+                m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
+                                weight * hit->weight,
+                                triangle_surface(space, triangle, p, geometric, *hit));
+            } else {
+                m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
+                                weight * hit->weight, {});
+            }
+        }
+    }
+
+    ConeSurface triangle_surface(const ConeSpace& space, std::uint32_t triangle,
+                                 const std::array<Vec3f, 3>& p, const Vec3f& geometric,
+                                 const ConeTriangleHit& hit) const {
+        const auto& tri = m_view.triangles[triangle];
+        const Material& material =
+            m_geometry.scene().materials[m_view.triangle_materials[triangle]];
+        const float b0 = 1.0f - hit.b1 - hit.b2;
+        const float b[3] = {b0, hit.b1, hit.b2};
+        Vec3f n[3];
+        Vec2f uv[3] = {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()};
+        Vec3f normal = Vec3f::Zero();
+        Vec2f at = Vec2f::Zero();
+        for (int i = 0; i < 3; ++i) {
+            n[i] = decode_normal(m_view.vertex_normals[tri[static_cast<std::size_t>(i)]]);
+            normal += b[i] * n[i];
+            if (!m_view.vertex_uvs.empty()) {
+                const auto& t = m_view.vertex_uvs[tri[static_cast<std::size_t>(i)]];
+                uv[i] = Vec2f(t[0], t[1]);
+                at += b[i] * uv[i];
+            }
+        }
+        const float length = normal.norm();
+        normal = length > 0.0f ? Vec3f(normal / length) : geometric;
+        ConeSurface s;
+        s.normal = (space.normal_to_world * normal).normalized();
+        s.specular = material.specular;
+        s.phong_exponent = material.phong_exponent;
+        s.reflectivity = material.reflectivity;
+        s.transparency = material.transparency;
+        s.roughness = material.roughness;
+        s.ior = material.ior;
+        const Vec3f positions[3] = {p[0], p[1], p[2]};
+        if (material.texture >= 0) {
+            // The footprint at the hit, projected along the ray onto the triangle's plane
+            // (Igehy's transfer), gives the texture-space footprint of the lookup (§4).
+            const Mat2f f = m_options.texture_footprint_scale * space.ray.cone.at(hit.t);
+            const Mat32f columns = space.ray.cone.basis() * f;
+            RayDifferential footprint;
+            footprint.dp_dx = columns.col(0);
+            footprint.dp_dy = columns.col(1);
+            const RayDifferential on_plane =
+                footprint.transfer(space.ray.direction, 0.0f, geometric);
+            const SurfaceDifferential sd = triangle_differential(
+                positions, n, uv, hit.b1, hit.b2, on_plane.dp_dx, on_plane.dp_dy, false);
+            s.diffuse = m_geometry.textures().diffuse(material, at, {sd.duv_dx, sd.duv_dy});
+        } else {
+            s.diffuse = material.diffuse;
+        }
+        if (material.reflects() || material.refracts()) {
+            Vec3f t1;
+            Vec3f t2;
+            orthonormal_basis(geometric, t1, t2);
+            const SurfaceDifferential sd =
+                triangle_differential(positions, n, uv, hit.b1, hit.b2, t1, t2, false);
+            const Mat3f shape = sd.dn_dx * t1.transpose() + sd.dn_dy * t2.transpose();
+            s.shape = shape_to_world(shape, normal, space);
+        }
+        return s;
+    }
+
+    const ConeGeometry& m_geometry;
+    const HierarchyView& m_view;
+    const ConeTraversalOptions& m_options;
+    const std::atomic<bool>* m_stop;
+    Buffer& m_buffer;
+    ConeTraversalStats& m_stats;
+    float m_t_min;
+    float m_t_max;
+    std::uint32_t m_spaces = 0;  ///< Spaces entered so far (the world is 0).
+    static constexpr std::size_t kFrameCacheSize = 64;
+    struct FrameCacheEntry {
+        std::uint32_t vertex = 0xffffffffu;
+        std::uint32_t space = 0xffffffffu;
+        GaussianFrame frame;
+    };
+    std::array<FrameCacheEntry, kFrameCacheSize> m_frame_cache{};
+};
+
+}  // namespace
+
+ConeTraversalStats& ConeTraversalStats::operator+=(const ConeTraversalStats& o) {
+    rays += o.rays;
+    nodes_visited += o.nodes_visited;
+    spheres_tested += o.spheres_tested;
+    points_tested += o.points_tested;
+    points_hit += o.points_hit;
+    triangles_tested += o.triangles_tested;
+    triangles_hit += o.triangles_hit;
+    instances_entered += o.instances_entered;
+    culled_by_opacity += o.culled_by_opacity;
+    back_faces_culled += o.back_faces_culled;
+    point_nodes += o.point_nodes;
+    level_sum += o.level_sum;
+    level_weight += o.level_weight;
+    abuffer += o.abuffer;
+    return *this;
+}
+
+std::ostream& operator<<(std::ostream& os, const ConeTraversalStats& s) {
+    return os << "ConeTraversalStats{rays " << s.rays << ", nodes " << s.nodes_visited
+              << ", spheres " << s.spheres_tested << ", points " << s.points_tested << " ("
+              << s.points_hit << " hit), triangles " << s.triangles_tested << " ("
+              << s.triangles_hit << " hit), instances " << s.instances_entered << ", " << s.abuffer
+              << '}';
+}
+
+namespace {
+
+/// Interleaves the low 10 bits of x, y, z.
+std::uint32_t morton3(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+    const auto spread = [](std::uint32_t v) {
+        v &= 0x3ffu;
+        v = (v | (v << 16)) & 0x030000ffu;
+        v = (v | (v << 8)) & 0x0300f00fu;
+        v = (v | (v << 4)) & 0x030c30c3u;
+        v = (v | (v << 2)) & 0x09249249u;
+        return v;
+    };
+    return spread(x) | (spread(y) << 1) | (spread(z) << 2);
+}
+
+/// Sorts `items` by Morton code of `position(item)` in the node's cube and appends clusters of
+/// kConeClusterSize with bounding spheres (each item's extent `radius(item)` around its
+/// position) to `clusters`, the sorted items to `order`.
+template <class Position, class Radius>
+void cluster(const HierarchyNode& node, std::vector<std::uint32_t> items, Position&& position,
+             Radius&& radius, std::vector<ConeCluster>& clusters,
+             std::vector<std::uint32_t>& order) {
+    const Vec3f origin(node.origin[0], node.origin[1], node.origin[2]);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> keyed;
+    keyed.reserve(items.size());
+    for (const std::uint32_t item : items) {
+        const Vec3f q =
+            ((position(item) - origin) / node.side * 1023.0f).cwiseMax(0.0f).cwiseMin(1023.0f);
+        keyed.emplace_back(
+            morton3(static_cast<std::uint32_t>(q.x()), static_cast<std::uint32_t>(q.y()),
+                    static_cast<std::uint32_t>(q.z())),
+            item);
+    }
+    std::sort(keyed.begin(), keyed.end());
+    for (std::size_t first = 0; first < keyed.size(); first += kConeClusterSize) {
+        const std::size_t last = std::min(keyed.size(), first + kConeClusterSize);
+        Eigen::AlignedBox3f box;
+        for (std::size_t i = first; i < last; ++i) {
+            box.extend(position(keyed[i].second));
+        }
+        const Vec3f centre = box.center();
+        float r = 0.0f;
+        for (std::size_t i = first; i < last; ++i) {
+            r = std::max(r, (position(keyed[i].second) - centre).norm() + radius(keyed[i].second));
+        }
+        clusters.push_back({{centre.x(), centre.y(), centre.z()},
+                            r * (1.0f + 1e-5f) + 1e-30f,
+                            static_cast<std::uint32_t>(order.size()),
+                            static_cast<std::uint32_t>(last - first)});
+        for (std::size_t i = first; i < last; ++i) {
+            order.push_back(keyed[i].second);
+        }
+    }
+}
+
+}  // namespace
+
+ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
+                           const TextureSampler& textures)
+    : m_view(view), m_scene(scene), m_textures(textures), m_closed(m_view) {
+    m_to_object.reserve(m_view.instances.size());
+    m_normal_to_group.reserve(m_view.instances.size());
+    for (const HierarchyInstance& instance : m_view.instances) {
+        const Affine3f to_group = instance.affine();
+        // In double: a scale of 1e13 has a determinant beyond float's range although its
+        // inverse is representable (common/math/invertibility.h).
+        m_to_object.push_back(inverse_in_double(to_group));
+        m_normal_to_group.push_back(inverse_in_double(Mat3f(to_group.linear())).transpose());
+    }
+    m_node_clusters.resize(m_view.nodes.size());
+    m_point_order.reserve(m_view.core.size());
+    m_triangle_order.reserve(m_view.node_triangles.size());
+    m_triangle_bounds.reserve(m_view.node_triangles.size());
+    std::vector<std::uint32_t> items;
+    for (std::size_t n = 0; n < m_view.nodes.size(); ++n) {
+        const HierarchyNode& node = m_view.nodes[n];
+        ConeNodeClusters& c = m_node_clusters[n];
+        items.clear();
+        for (std::uint32_t i = 0; i < node.point_count; ++i) {
+            items.push_back(node.first_point + i);
+        }
+        c.first_point_cluster = static_cast<std::uint32_t>(m_point_clusters.size());
+        cluster(
+            node, items,
+            [&](std::uint32_t i) {
+                return point_position(node, m_view.grid, m_view.core[i], m_view.offset[i]);
+            },
+            [](std::uint32_t) { return 0.0f; }, m_point_clusters, m_point_order);
+        c.point_cluster_count =
+            static_cast<std::uint32_t>(m_point_clusters.size()) - c.first_point_cluster;
+        items.clear();
+        for (std::uint32_t k = 0; k < node.triangle_count; ++k) {
+            items.push_back(m_view.node_triangles[node.first_triangle + k]);
+        }
+        const auto vertex = [&](std::uint32_t t, std::size_t i) {
+            return to_vec(m_view.vertex_positions[m_view.triangles[t][i]]);
+        };
+        const auto centroid = [&](std::uint32_t t) {
+            return Vec3f((vertex(t, 0) + vertex(t, 1) + vertex(t, 2)) / 3.0f);
+        };
+        const auto extent = [&](std::uint32_t t) {
+            const Vec3f m = centroid(t);
+            return std::max(
+                {(vertex(t, 0) - m).norm(), (vertex(t, 1) - m).norm(), (vertex(t, 2) - m).norm()});
+        };
+        c.first_triangle_cluster = static_cast<std::uint32_t>(m_triangle_clusters.size());
+        const std::size_t first_ordered = m_triangle_order.size();
+        cluster(node, items, centroid, extent, m_triangle_clusters, m_triangle_order);
+        c.triangle_cluster_count =
+            static_cast<std::uint32_t>(m_triangle_clusters.size()) - c.first_triangle_cluster;
+        for (std::size_t j = first_ordered; j < m_triangle_order.size(); ++j) {
+            const std::uint32_t t = m_triangle_order[j];
+            const Vec3f m = centroid(t);
+            // Rounding of the centre and of the ray frame's offsets: a relative margin.
+            m_triangle_bounds.push_back(
+                {{m.x(), m.y(), m.z()}, extent(t) * (1.0f + 1e-5f) + 1e-30f});
+        }
+    }
+}
+
+ConeTraversal::ConeTraversal(const ConeGeometry& geometry, const ConeTraversalOptions& options,
+                             const std::atomic<bool>* stop)
+    : m_geometry(geometry), m_options(options), m_stop(stop) {}
+
+template <class Buffer>
+void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
+                             ConeTraversalStats& stats) const {
+    ++stats.rays;
+    ConeSpace world;
+    world.ray = ray;
+    world.start = start_radius(ray.cone);
+    Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max);
+    walk.object(world, m_geometry.view().world_object, 1.0f);
+}
+
+void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
+                          ABuffer<ConeSurface>& buffer, ConeTraversalStats& stats) const {
+    traverse(ray, t_min, t_max, buffer, stats);
+}
+
+void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
+                          ABuffer<ConeOpacity>& buffer, ConeTraversalStats& stats) const {
+    traverse(ray, t_min, t_max, buffer, stats);
+}
+
+}  // namespace mrt

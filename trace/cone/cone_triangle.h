@@ -1,0 +1,97 @@
+#pragma once
+// Ray cone – triangle intersection (Wand & Straßer §4.5): the triangle's vertices in ray
+// coordinates, each mapped into the coordinates of the cone's unit Gaussian at its own depth
+// ("through the eigenspace, for stability", §5.2), then the weight of the 2D triangle around
+// the origin. Triangle hits enter the A-buffer like points, so blurred edges and anti-aliased
+// silhouettes come from the weight.
+//
+// Two weights:
+// - `Paper`: §4.5's exp(−(d − ½)²) from the distance d of the triangle's closest point to the
+//   origin (1 for d ≤ ½, clipped below 2 %). It keeps full weight until half a Gaussian unit
+//   outside the edge, so silhouettes come out fat — the paper's own open problem (§6).
+// - `Coverage` (default): the Gaussian's mass over the triangle, exactly: with the origin
+//   inside, 1 minus what the three edges cut off; outside, what the edges facing it enclose.
+//   Each edge's share is (1/2π)∫exp(−h²/cos²α)dα over the angle it subtends (h its distance
+//   from the origin), a smooth integrand over less than π, integrated with 16-point
+//   Gauss–Legendre. ½ on a straight edge, ¼ at a right-angled corner, and a triangle much
+//   smaller than the footprint weighs its area times the Gaussian's height, as points do.
+//
+// Mapping. For a footprint F the Gaussian is exp(−|F⁻¹x|²). With F·Fᵀ = U·Λ·Uᵀ, the map
+// y = U·Λ^(−1/2)·Uᵀ·x = (F·Fᵀ)^(−1/2)·x differs from F⁻¹x by a rotation, so it gives the same
+// Gaussian, and it is computed from the stable closed-form eigen-decomposition
+// (common/footprint/footprint.h) instead of an inverse that loses everything when F's columns are nearly
+// collinear; the anisotropy clamp bounds Λ's condition. The rotation back by U makes the map
+// unique and continuous in F, which mapping each vertex with the footprint at its own depth
+// (the exact version of §5.2) needs: Λ^(−1/2)·Uᵀ alone would turn with the axes of an almost
+// round footprint. The tracer (trace/cone/cone_traversal.h) passes three frames at the vertices'
+// depths, or three copies of one (the paper's faster version: one decomposition per box).
+
+#include "common/footprint/footprint.h"
+#include "common/math/math.h"
+#include "trace/cone/cone_ray.h"
+
+#include <algorithm>
+#include <array>
+#include <iosfwd>
+#include <optional>
+
+namespace mrt {
+
+enum class TriangleWeight { Paper, Coverage };
+
+/// How the cone is seen at a depth: the map into its unit Gaussian's coordinates.
+struct GaussianFrame {
+    Vec2f axis = Vec2f::UnitX();              ///< Major axis of the footprint ellipse (ray u/v).
+    Vec2f inverse_semi_axes = Vec2f::Zero();  ///< 1/√λ along the major and the minor axis.
+
+    /// The frame of footprint F (already anisotropy-clamped); a zero or non-finite F gives
+    /// zero inverse semi-axes (nothing maps anywhere but the origin).
+    static GaussianFrame of(const Mat2f& footprint);
+    /// The same from the footprint's ellipse (FootprintCone::ellipse_of), already known.
+    static GaussianFrame of_ellipse(const SymmetricEigen2& ellipse);
+    Vec2f map(const Vec2f& offset) const;
+};
+
+struct ConeTriangleHit {
+    /// Depth of the hit: where the axis meets the triangle's plane, within the triangle's
+    /// depths (the closest point's depth where the plane is edge-on).
+    float t = 0.0f;
+    float weight = 0.0f;  ///< In (0, 1/0.98] for `Coverage`; the A-buffer's weight.
+    float b1 = 0.0f;      ///< Barycentric coordinates of the closest point (vertex 1, 2).
+    float b2 = 0.0f;
+};
+
+/// How far from the axis, in the Gaussian's units, a triangle's closest point may lie and still
+/// be weighed: where the Gaussian (Coverage) or the paper's weight falls below the 2 % clip.
+float triangle_clip_radius(TriangleWeight weight);
+
+/// Whether the triangle with vertices `y` (in the Gaussian's units) lies wholly beyond the
+/// square |y_x|, |y_y| ≤ reach around the origin on one side: then it cannot come within
+/// reach. The cheap rejection of the many triangles far from a cone.
+inline bool misses_square(const std::array<Vec2f, 3>& y, float reach) {
+    for (int axis = 0; axis < 2; ++axis) {
+        const float lo = std::min({y[0][axis], y[1][axis], y[2][axis]});
+        const float hi = std::max({y[0][axis], y[1][axis], y[2][axis]});
+        if (lo > reach || hi < -reach) {
+            return true;
+        }
+    }
+    return false;
+}
+
+/// The hit of the cone with the triangle, or nothing when its closest point lies beyond the
+/// 2 % clip (triangle_clip_radius) or no vertex lies in front of t_min. The Coverage weight is
+/// the Gaussian's mass over the triangle over 0.98, the mass inside the clip circle: the
+/// triangles of a surface around the cone add up to at least 1. `frames` are the Gaussian frames at
+/// the vertices (PerVertex) or three copies of one (PerNode).
+std::optional<ConeTriangleHit> intersect_cone_triangle(
+    const std::array<VertexInRayFrame, 3>& vertices, const std::array<GaussianFrame, 3>& frames,
+    TriangleWeight weight, float t_min);
+
+/// The Gaussian mass exp(−|y|²)/π over the 2D triangle (a, b, c), in [0, 1]: the `Coverage`
+/// weight, exposed for tests.
+float gaussian_triangle_mass(const Vec2f& a, const Vec2f& b, const Vec2f& c);
+
+std::ostream& operator<<(std::ostream& os, const ConeTriangleHit& hit);
+
+}  // namespace mrt

@@ -1,0 +1,26 @@
+#pragma once
+// The conventional ray tracer (Whitted 1980), the speed baseline of every comparison: one ray
+// per pixel centre (or a fixed jittered grid with spp > 1), Phong shading with hard shadows from
+// point lights and from area lights reduced to their centres, mirror reflection and refraction
+// weighted by the material coefficients, total internal reflection, and a depth limit
+// (trace/raytrace/ray_tree.h).
+
+#include "common/scene/scene.h"
+#include "trace/raytrace/ray_tree.h"
+#include "trace/render/render.h"
+#include "trace/bvh/scene_bvh.h"
+
+namespace mrt {
+
+using WhittedTracer = RayTree<CentreSampling>;
+
+/// Renders the scene's camera with the Whitted tracer, samples reconstructed with
+/// options.filter, textures from `textures` (built for options.texture_filter: preparing the
+/// mip-mapped textures is load work, not render work).
+RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures,
+                            const RenderOptions& options);
+
+/// The same, preparing the textures itself.
+RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options);
+
+}  // namespace mrt
