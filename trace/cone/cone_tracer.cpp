@@ -71,13 +71,6 @@ constexpr float kShadowEndFraction = 0.999f;
 /// which no frame narrower than 179.8° has.
 constexpr float kMinimumForwardCosine = 1e-3f;
 
-/// A blurred cone's growth along the ray is taken as the difference quotient of its footprint
-/// over a step of this fraction of the depth (never below kMinimumGrowthDepth, where the
-/// fragment lies at the apex): the footprint is smooth in t on that scale, and a hundredth keeps
-/// the quotient clear of float cancellation.
-constexpr float kGrowthStep = 0.01f;
-constexpr float kMinimumGrowthDepth = 1e-6f;
-
 /// How far from 1 the squared length of a vector the shader takes for unit may be (checked in
 /// Debug builds): normalised in float it is a few ulps off; a thousandth catches one that was
 /// never normalised, or a zero sum of normals divided by its own rounding noise.
@@ -186,11 +179,7 @@ class ConeTracer {
     static RayDifferential at_surface(const ConeRay& ray, float t, const Vec3f& n) {
         const FootprintCone& cone = ray.cone;
         const Mat2f footprint = cone.at(t);
-        Mat2f growth = cone.incr_dev;
-        if (cone.blurred) {
-            const float step = kGrowthStep * std::max(t, kMinimumGrowthDepth);
-            growth = (cone.at(t + step) - footprint) / step;
-        }
+        const Mat2f growth = cone.growth_at(t);
         const Mat32f position = cone.basis() * footprint;
         const Mat32f direction = cone.basis() * growth;
         RayDifferential rd;
