@@ -238,32 +238,92 @@ Mat2f FootprintCone::clamp_decomposed(const Mat2f& footprint, float max_anisotro
 
 namespace {
 
+/// The parts of the square root of the symmetric positive semi-definite C = [[a, b], [b, c]]:
+/// it is (C + s·I)/τ with s = √det C and τ = √(tr C + 2s) (Cayley–Hamilton): no
+/// eigen-decomposition, and every term is a sum of non-negative numbers except det C, taken
+/// without cancellation. Scaled to the larger diagonal entry m first (an, bn, cn = C/m, and s, τ
+/// of that): det C is a product of two entries, which in float underflows below entries of 1e-19
+/// (footprints of 1e-11) and overflows above 1e19. The root is √m·(C/m + s·I)/τ.
+struct RootParts {
+    float m = 0.0f;                         ///< The larger diagonal entry of C.
+    float an = 0.0f, bn = 0.0f, cn = 0.0f;  ///< The entries of C/m.
+    float s = 0.0f;                         ///< √det(C/m).
+    float tau = 0.0f;                       ///< √(tr(C/m) + 2s).
+    bool valid = false;  ///< False for a zero or non-finite C: its root is taken as zero.
+};
+
+RootParts root_parts(float a, float b, float c) {
+    RootParts r;
+    r.m = std::max(a, c);
+    if (!(r.m > 0.0f) || !std::isfinite(r.m) || !std::isfinite(b)) {
+        return r;
+    }
+    r.an = a / r.m;
+    r.bn = b / r.m;
+    r.cn = c / r.m;
+    r.s = std::sqrt(std::max(difference_of_products(r.an, r.cn, r.bn, r.bn), 0.0f));
+    r.tau = std::sqrt(r.an + r.cn + 2.0f * r.s);
+    r.valid = r.tau > 0.0f && std::isfinite(r.tau);
+    return r;
+}
+
 /// The square root of the symmetric positive semi-definite [[a, b], [b, c]].
 Mat2f symmetric_root(float a, float b, float c) {
-    // The square root of a symmetric positive semi-definite 2×2 matrix C is (C + s·I)/τ with
-    // s = √det C and τ = √(tr C + 2s) (Cayley–Hamilton): no eigen-decomposition, and every
-    // term is a sum of non-negative numbers except det C, taken without cancellation.
-    // Scaled to the larger diagonal entry first: det C is a product of two entries, which in
-    // float underflows below entries of 1e-19 (footprints of 1e-11) and overflows above 1e19.
-    const float m = std::max(a, c);
-    if (!(m > 0.0f) || !std::isfinite(m) || !std::isfinite(b)) {
+    const RootParts r = root_parts(a, b, c);
+    if (!r.valid) {
         return Mat2f::Zero();
     }
-    const float an = a / m;
-    const float bn = b / m;
-    const float cn = c / m;
-    const float s = std::sqrt(std::max(difference_of_products(an, cn, bn, bn), 0.0f));
-    const float tau = std::sqrt(an + cn + 2.0f * s);
-    if (!(tau > 0.0f) || !std::isfinite(tau)) {
-        return Mat2f::Zero();
-    }
-    const float scale = std::sqrt(m) / tau;
+    const float scale = std::sqrt(r.m) / r.tau;
     Mat2f root;
-    root << (an + s) * scale, bn * scale, bn * scale, (cn + s) * scale;
+    root << (r.an + r.s) * scale, r.bn * scale, r.bn * scale, (r.cn + r.s) * scale;
     return root;
 }
 
+/// The derivative of symmetric_root(a, b, c) along the symmetric direction (da, db, dc): with
+/// C/m, s and τ as there, dR = √m·(dC/m + ds·I − (C/m + s·I)·dτ/τ)/τ, ds = d(det)/(2s),
+/// dτ = (tr dC/m + 2·ds)/(2τ). Where C is singular (a footprint collapsed to a segment)
+/// det C ≥ 0 is at its minimum and ds is taken as 0: √det has no derivative there, and 0 is the
+/// mean of its one-sided ones.
+Mat2f symmetric_root_derivative(float a, float b, float c, float da, float db, float dc) {
+    const RootParts r = root_parts(a, b, c);
+    if (!r.valid) {
+        return Mat2f::Zero();
+    }
+    const float dan = da / r.m;
+    const float dbn = db / r.m;
+    const float dcn = dc / r.m;
+    float ds = 0.0f;
+    if (r.s > 0.0f) {
+        ds = (r.an * dcn + r.cn * dan - 2.0f * r.bn * dbn) / (2.0f * r.s);
+        if (!std::isfinite(ds)) {
+            ds = 0.0f;
+        }
+    }
+    const float dtau_over_tau = (dan + dcn + 2.0f * ds) / (2.0f * r.tau * r.tau);
+    const float scale = std::sqrt(r.m) / r.tau;
+    const float off_diagonal = (dbn - r.bn * dtau_over_tau) * scale;
+    Mat2f derivative;
+    derivative << (dan + ds - (r.an + r.s) * dtau_over_tau) * scale, off_diagonal, off_diagonal,
+        (dcn + ds - (r.cn + r.s) * dtau_over_tau) * scale;
+    return derivative;
+}
+
 }  // namespace
+
+Mat2f FootprintCone::growth_at(float t) const {
+    if (!blurred) {
+        return incr_dev;
+    }
+    // C(t) = F·Fᵀ + B·Bᵀ with F and B linear in t: dC = F·dFᵀ + dF·Fᵀ + B·dBᵀ + dB·Bᵀ.
+    const Mat2f f = pixel_at(t);
+    const Mat2f b = blur_start + t * blur_incr;
+    const Mat2f sum = f * f.transpose() + b * b.transpose();
+    const Mat2f half_derivative = f * incr_dev.transpose() + b * blur_incr.transpose();
+    const Mat2f derivative = half_derivative + half_derivative.transpose();
+    return symmetric_root_derivative(sum(0, 0), 0.5f * (sum(0, 1) + sum(1, 0)), sum(1, 1),
+                                     derivative(0, 0), 0.5f * (derivative(0, 1) + derivative(1, 0)),
+                                     derivative(1, 1));
+}
 
 Mat2f FootprintCone::widened(const Mat2f& footprint, float radius) {
     const Mat2f f = footprint * footprint.transpose();

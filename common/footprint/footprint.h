@@ -169,6 +169,11 @@ struct FootprintCone {
         return convolved(f, blur_start + t * blur_incr);
     }
 
+    /// The footprint's growth along the ray, d at(t)/dt: incr_dev, or for a blurred cone the
+    /// derivative of the symmetric root G(t) of F·Fᵀ + B·Bᵀ, in closed form (the derivative of
+    /// convolved's Cayley–Hamilton root). The directional differentials of the footprint at t.
+    Mat2f growth_at(float t) const;
+
     /// Adds the cone B(t) = start + t·incr to the blur (squared matrices add, so blurs
     /// accumulate: a rough reflection of a blurred ray stays blurred).
     void add_blur(const Mat2f& start, const Mat2f& incr);

@@ -1,7 +1,7 @@
 #include "trace/bvh/scene_bvh.h"
 
-#include "common/system/error.h"
 #include "common/math/invertibility.h"
+#include "common/system/error.h"
 #include "trace/bvh/bvh_build.h"
 #include "trace/bvh/triangle_intersect.h"
 
@@ -43,6 +43,11 @@ struct PathLink {
     const PathLink* parent;
 };
 
+/// The padding of a transformed box, in float epsilons of the largest coordinate involved: the
+/// transform's rounding of a corner and of the geometry's own points is a few ulps each, so 64
+/// covers both with room and costs a negligible widening.
+constexpr float kBoxPadUlps = 64.0f;
+
 /// Box around the 8 transformed corners, padded so that rounding in the transform (a few ulps
 /// of the coordinates involved) cannot make it smaller than the transformed geometry.
 Eigen::AlignedBox3f transform_box(const Eigen::AlignedBox3f& box, const Affine3f& xf) {
@@ -57,7 +62,8 @@ Eigen::AlignedBox3f transform_box(const Eigen::AlignedBox3f& box, const Affine3f
     const float magnitude =
         std::max(out.min().cwiseAbs().maxCoeff(), out.max().cwiseAbs().maxCoeff()) +
         xf.translation().cwiseAbs().maxCoeff();
-    const Vec3f pad = Vec3f::Constant(64.0f * std::numeric_limits<float>::epsilon() * magnitude);
+    const Vec3f pad =
+        Vec3f::Constant(kBoxPadUlps * std::numeric_limits<float>::epsilon() * magnitude);
     return Eigen::AlignedBox3f(out.min() - pad, out.max() + pad);
 }
 

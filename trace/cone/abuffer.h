@@ -1,11 +1,11 @@
 #pragma once
 // The per-ray A-buffer of Wand & Straßer §4.4 (after Zwicker et al.'s surface splatting): the
 // cone tracer inserts every point and triangle intersection of one ray cone ("fragments" of
-// surface) with its weight (common/footprint/point_weight.h) and a depth tolerance interval; points whose
-// intervals overlap are one piece of surface and are averaged, the rest stay separate fragments
-// in depth order, and the fragments are alpha-blended front to back with alpha = min(1, weight
-// sum) — "any fragment in the interior of any surface has at least a weight of one. Therefore,
-// we can interpret weight sums of less than one as alpha values to blend edges."
+// surface) with its weight (common/footprint/point_weight.h) and a depth tolerance interval; points
+// whose intervals overlap are one piece of surface and are averaged, the rest stay separate
+// fragments in depth order, and the fragments are alpha-blended front to back with alpha = min(1,
+// weight sum) — "any fragment in the interior of any surface has at least a weight of one.
+// Therefore, we can interpret weight sums of less than one as alpha values to blend edges."
 //
 // Hot path: one buffer per ray, fixed capacity (std::array, no allocation), cleared in O(1).
 // Invariant: fragments [0, size()) have disjoint closed intervals in increasing depth,
@@ -14,6 +14,7 @@
 // into the fragments behind it (the cascade).
 
 #include "common/math/math.h"
+#include "common/system/check.h"
 
 #include <algorithm>
 #include <array>
@@ -164,6 +165,7 @@ class ABuffer {
     /// finite, and t or tolerance that are not finite, are ignored (counted); a negative
     /// tolerance counts as 0.
     void insert(float t, float tolerance, float weight, const A& attributes) {
+        MRT_DCHECK(ordered());
         if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
             !std::isfinite(tolerance)) {
             ++m_stats.ignored;
@@ -229,6 +231,7 @@ class ABuffer {
     requires std::convertible_to<std::invoke_result_t<Shade&, const A&, const FragmentType&>, Rgb>
         CompositeResult composite(Shade&& shade)
     const {
+        MRT_DCHECK(ordered());
         CompositeResult result;
         for (int i = 0; i < m_count && result.transmittance > 0.0f; ++i) {
             const FragmentType& f = m_fragments[i];
@@ -253,6 +256,18 @@ class ABuffer {
     const ABufferStats& stats() const { return m_stats; }
 
   private:
+    /// The invariant every operation keeps (and first_reaching relies on): the fragments in depth
+    /// order, each interval ending strictly before the next begins (touching ones are merged).
+    bool ordered() const {
+        for (int i = 0; i < m_count; ++i) {
+            if (!(m_fragments[i].near <= m_fragments[i].far) ||
+                (i > 0 && !(m_fragments[i - 1].far < m_fragments[i].near))) {
+                return false;
+            }
+        }
+        return m_count >= 0 && m_count <= Capacity;
+    }
+
     /// Index of the first fragment with far ≥ lo (size() if none): far increases along the
     /// buffer. A linear scan: at most Capacity short compares, the buffer is small and hot.
     int first_reaching(float lo) const {

@@ -27,13 +27,23 @@ struct EdgeUse {
 /// 53° of it may be missing. The Stanford bunny, with the five holes in its base, has 0.16.
 constexpr double kMaxHoleShare = 0.2;
 
+/// A closed surface's rounding slack (ClosedSurface::slack), as a fraction of its box's diagonal:
+/// far above float rounding of positions in the box (1e-7), far below any gap a cone could
+/// start in and still be meant to see the solid from outside.
+constexpr double kSlackFraction = 1e-3;
+
+/// An object's vertex normals count as pointing out of its solids when the triangles whose
+/// normals point in hold at most this share of its area: a few stray normals (at a crease) are
+/// tolerated, a mesh whose normals all point in is not.
+constexpr double kMaxInwardNormalShare = 0.01;
+
 ClosedSurface surface(const Eigen::AlignedBox3d& box, float outward) {
     const Eigen::Vector3f lower = box.min().cast<float>();
     const Eigen::Vector3f upper = box.max().cast<float>();
     return {{lower.x(), lower.y(), lower.z()},
             {upper.x(), upper.y(), upper.z()},
             outward,
-            static_cast<float>(1e-3 * box.diagonal().norm())};
+            static_cast<float>(kSlackFraction * box.diagonal().norm())};
 }
 
 std::uint32_t find(std::vector<std::uint32_t>& parent, std::uint32_t i) {
@@ -189,7 +199,8 @@ ClosedSurfaces::ClosedSurfaces(const HierarchyView& view)
                                   decode_normal(view.vertex_normals[tri[2]]);
             (outward.dot(normals) > 0.0f ? agreeing : disagreeing) += outward.norm();
         }
-        if (all_closed && !surface_of.empty() && disagreeing <= 0.01 * (agreeing + disagreeing)) {
+        if (all_closed && !surface_of.empty() &&
+            disagreeing <= kMaxInwardNormalShare * (agreeing + disagreeing)) {
             // Its points' normals point out of the solid: the object's entry says +1.
             m_object_surface[o] = static_cast<std::uint32_t>(m_surfaces.size());
             m_surfaces.push_back(surface(object_box, 1.0f));

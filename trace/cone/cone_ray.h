@@ -2,12 +2,12 @@
 // A ray cone in one space (the world, or an instance's object space) and the cone–point
 // intersection of Wand & Straßer §4.3: a surfel expressed in ray coordinates — its depth t along
 // the unit direction and its offset along the footprint's u and v axes — and weighed with the
-// footprint at the node's depth (common/footprint/point_weight.h). The ray-coordinate types here are what
-// the cone kernels (trace/cone/cone_bounds.h, trace/cone/cone_triangle.h) take.
+// footprint at the node's depth (common/footprint/point_weight.h). The ray-coordinate types here
+// are what the cone kernels (trace/cone/cone_bounds.h, trace/cone/cone_triangle.h) take.
 
 #include "common/footprint/footprint.h"
-#include "common/math/math.h"
 #include "common/footprint/point_weight.h"
+#include "common/math/math.h"
 
 #include <iosfwd>
 #include <optional>
@@ -65,8 +65,16 @@ struct ConePointHit {
     float weight = 0.0f;  ///< point_weight: the A-buffer's weight.
 };
 
-/// The surfel at `position` (on the surface: common/hierarchy/hierarchy_file.h point_position) with unit
-/// `normal` and decoded `coverage`, weighed with `frame` (point_weight_frame of the footprint
+/// A point's depth is where the cone's axis meets its tangent plane only where the plane faces the
+/// axis by a cosine above kPlaneDepthCosine: below, the offset over the cosine (×10 and more)
+/// carries the depth off along a grazing plane, and the point's own depth is kept. Over the next
+/// kPlaneDepthBlend of cosine the two are blended by a smoothstep, so that a fragment's depth does
+/// not jump where a curved surface's points cross the threshold.
+inline constexpr float kPlaneDepthCosine = 0.1f;
+inline constexpr float kPlaneDepthBlend = 0.2f;
+
+/// The surfel at `position` (on the surface: common/hierarchy/hierarchy_file.h point_position) with
+/// unit `normal` and decoded `coverage`, weighed with `frame` (point_weight_frame of the footprint
 /// at the node's depth and its spacing); nothing when it lies before t_min or outside the clip.
 inline std::optional<ConePointHit> intersect_cone_point(const ConeRay& ray,
                                                         const PointWeightFrame& frame,
@@ -84,11 +92,11 @@ inline std::optional<ConePointHit> intersect_cone_point(const ConeRay& ray,
     // The tangent plane n·(x − p) = 0 meets the axis o + t·d at t = p.t + (n_uv·offset)/(n·d).
     const float c = std::abs(cosine);
     float t = p.t;
-    if (c > 0.1f) {
+    if (c > kPlaneDepthCosine) {
         const float plane =
             p.t + (normal.dot(ray.cone.u) * p.offset.x() + normal.dot(ray.cone.v) * p.offset.y()) /
                       cosine;
-        const float s = std::min(1.0f, (c - 0.1f) / 0.2f);
+        const float s = std::min(1.0f, (c - kPlaneDepthCosine) / kPlaneDepthBlend);
         t = p.t + s * s * (3.0f - 2.0f * s) * (plane - p.t);
     }
     if (!(t >= t_min)) {

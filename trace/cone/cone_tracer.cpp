@@ -1,13 +1,15 @@
 #include "trace/cone/cone_tracer.h"
 
-#include "trace/render/camera_rays.h"
 #include "common/footprint/footprint.h"
 #include "common/footprint/point_weight.h"
+#include "common/system/check.h"
 #include "trace/cone/abuffer.h"
-#include "trace/render/area_light.h"
 #include "trace/cone/cone_surface.h"
+#include "trace/render/area_light.h"
+#include "trace/render/camera_rays.h"
 #include "trace/render/film.h"
 #include "trace/render/pixel_filter.h"
+#include "trace/render/scattering.h"
 #include "trace/render/shading.h"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -43,8 +45,40 @@ constexpr float kMinimumElevation = 0.1f;
 /// 0.117 at 32², 0.121 with this). The surface a cone leaves is skipped by the traversal itself.
 constexpr float kShadowSelfIntersectionFactor = 0.02f;
 
-/// Branches whose contribution to the pixel is below this are not traced (as the baselines').
-constexpr float kMinimumWeight = 1.0f / 2550.0f;
+/// A shadow cone to an area light whose centre lies below the tangent plane (the light straddles
+/// it) is started as if the centre were this cosine above it. The value only has to be positive:
+/// start_clearance treats every elevation below kMinimumElevation alike.
+constexpr float kGrazingLightCosine = 1e-3f;
+
+/// The index of refraction a fragment's averaged index is floored to, so that 1/η stays finite.
+/// Scenes give indices ≥ 1 or near it; one of 1e-3 already totally reflects all but nearly normal
+/// rays.
+constexpr float kMinimumIor = 1e-3f;
+
+/// A refraction counts as straddling the critical angle (ConeRenderStats) when neither share of
+/// the footprint is below this: erfc's tails would otherwise count nearly every refraction.
+constexpr float kStraddleShare = 1e-3f;
+
+/// A shadow cone ends this fraction of the way to its light. At the light itself the footprint
+/// of a cone to a point light is zero (it shrinks linearly to nothing there), a Gaussian no
+/// weight is defined for, and whatever the light sits on (a lamp's fitting, a ceiling around an
+/// area light) lies at that depth; a thousandth short, the footprint is a thousandth of the
+/// hit's and that surface is left out.
+constexpr float kShadowEndFraction = 0.999f;
+
+/// The depth of focus along a primary ray is the focal distance over the cosine between the ray
+/// and the camera's axis; the floor only keeps it finite for a ray at right angles to the axis,
+/// which no frame narrower than 179.8° has.
+constexpr float kMinimumForwardCosine = 1e-3f;
+
+/// How far from 1 the squared length of a vector the shader takes for unit may be (checked in
+/// Debug builds): normalised in float it is a few ulps off; a thousandth catches one that was
+/// never normalised, or a zero sum of normals divided by its own rounding noise.
+constexpr float kUnitTolerance = 1e-3f;
+
+bool is_unit(const Vec3f& v) {
+    return std::abs(v.squaredNorm() - 1.0f) <= kUnitTolerance;
+}
 
 float start_clearance(const Mat2f& start_footprint, float elevation, float half_interval,
                       float factor = kSelfIntersectionFactor) {
@@ -62,6 +96,10 @@ constexpr float kMinimumSpread = 1e-5f;
 /// longer describes what its pixel sees (a 1×1 image of a 42° frame gave 0.157 against the
 /// frame's mean 0.296), so such a pixel is traced as a grid of narrower cones.
 constexpr float kMaximumPrimaryAngle = 0.035f;
+
+/// At most this many sub-cones along each side of a pixel: 4096 cones bound what a frame of
+/// nearly 180° costs per pixel, where the cones' first-order footprint is already far off anyway.
+constexpr int kMaximumPrimaryCells = 64;
 
 /// How a pixel is split into sub-cones: `cells` × `cells` over the filter's support
 /// [−radius, radius]², each cell `cell` pixels wide with the cone width `scale` of its box.
@@ -82,8 +120,9 @@ PrimarySplit primary_split(const CameraRays& camera, const PixelFilter& filter, 
     }
     split.radius = filter.radius;
     const float support = 2.0f * filter.radius;
-    split.cells = static_cast<int>(
-        std::min(64.0f, std::ceil(support * angle / (scale * kMaximumPrimaryAngle))));
+    split.cells =
+        static_cast<int>(std::min(static_cast<float>(kMaximumPrimaryCells),
+                                  std::ceil(support * angle / (scale * kMaximumPrimaryAngle))));
     split.cell = support / static_cast<float>(split.cells);
     split.scale = cone_pixel_scale(PixelFilter::box()) * split.cell;
     return split;
@@ -122,17 +161,25 @@ class ConeTracer {
     }
 
   private:
+    /// A fragment as the shader sees it: where the cone's axis meets it, the normal facing the
+    /// cone, and the cone's footprint there.
+    struct Hit {
+        Vec3f position;
+        Vec3f direction;  ///< The incoming cone's unit axis.
+        Vec3f normal;     ///< Unit, facing against `direction`.
+        Mat3f shape;      ///< The shape operator of that normal.
+        bool entering = true;
+        float half_interval = 0.0f;  ///< Half the fragment's depth interval.
+        RayDifferential footprint;   ///< at_surface of the cone at the hit.
+    };
+
     /// The footprint of `ray` at depth t as a ray differential on the surface with unit normal
     /// n: its columns projected along the ray onto the tangent plane (Igehy's transfer), and
     /// the directional differentials (for a blurred cone, of the convolved footprint).
     static RayDifferential at_surface(const ConeRay& ray, float t, const Vec3f& n) {
         const FootprintCone& cone = ray.cone;
         const Mat2f footprint = cone.at(t);
-        Mat2f growth = cone.incr_dev;
-        if (cone.blurred) {
-            const float step = 0.01f * std::max(t, 1e-6f);
-            growth = (cone.at(t + step) - footprint) / step;
-        }
+        const Mat2f growth = cone.growth_at(t);
         const Mat32f position = cone.basis() * footprint;
         const Mat32f direction = cone.basis() * growth;
         RayDifferential rd;
@@ -143,52 +190,70 @@ class ConeTracer {
         return rd.transfer(ray.direction, 0.0f, n);
     }
 
-    Rgb shade(const ConeSurface& s, const Fragment<ConeSurface>& fragment, const ConeRay& ray,
-              int depth, float weight, ConeWork& work) const {
+    static Hit hit_of(const ConeSurface& s, const Fragment<ConeSurface>& fragment,
+                      const ConeRay& ray) {
+        Hit hit;
         const Vec3f& d = ray.direction;
         const float t = fragment.depth();
-        const Vec3f p = ray.origin + t * d;
+        hit.position = ray.origin + t * d;
+        hit.direction = d;
         const Vec3f n = s.normal.squaredNorm() > 0.0f ? s.normal : Vec3f(-d);
-        const bool entering = n.dot(d) < 0.0f;
-        const Vec3f ns = entering ? n : Vec3f(-n);
-        const Mat3f shape = entering ? s.shape : Mat3f(-s.shape);
-        const float half_interval = 0.5f * (fragment.far - fragment.near);
-        const RayDifferential at_hit = at_surface(ray, t, ns);
+        hit.entering = n.dot(d) < 0.0f;
+        hit.normal = hit.entering ? n : Vec3f(-n);
+        hit.shape = hit.entering ? s.shape : Mat3f(-s.shape);
+        hit.half_interval = 0.5f * (fragment.far - fragment.near);
+        hit.footprint = at_surface(ray, t, hit.normal);
+        MRT_DCHECK(is_unit(hit.direction) && is_unit(hit.normal));
+        return hit;
+    }
 
+    /// The material the fragment's Phong terms are evaluated with (phong_brdf and the area
+    /// lights' highlight read only these two fields): its specular colour, and Toksvig's
+    /// exponent for the spread of the normals across the footprint. Without it the bunnies of
+    /// the paper's complex scene had highlights 2–4× the reference's (docs/cone-tracer.md).
+    static Material footprint_material(const ConeSurface& s) {
         Material material;
         material.specular = s.specular;
-        // The normals across the footprint spread the highlight: Toksvig's (2005) exponent for
-        // the length |n̄| of their mean, e·|n̄| / (|n̄| + e·(1 − |n̄|)), as mip-mapped normal
-        // maps do. A single normal for the footprint would give a detailed surface (a bunny
-        // seen from afar) one coherent highlight several times too bright where the
-        // reference sees scattered glints (measured on the paper's complex scene).
-        const float agreement = std::clamp(s.normal_length, 1e-3f, 1.0f);
-        material.phong_exponent =
-            s.phong_exponent * agreement / (agreement + s.phong_exponent * (1.0f - agreement));
-        const float local = std::max(0.0f, 1.0f - s.reflectivity - s.transparency);
-        const Rgb albedo = s.diffuse * local;
-        Rgb result = m_scene.ambient * albedo;
+        material.phong_exponent = toksvig_exponent(s.phong_exponent, s.normal_length);
+        return material;
+    }
 
-        const Vec3f wo = -d;
-        const auto add_light = [&](const LightSample& light, const EllipticalAreaLight* area) {
-            const float cosine = ns.dot(light.wi);
-            if (cosine <= 0.0f || (light.irradiance <= 0.0f).all()) {
-                return;
+    Rgb shade(const ConeSurface& s, const Fragment<ConeSurface>& fragment, const ConeRay& ray,
+              int depth, float weight, ConeWork& work) const {
+        MRT_DCHECK(std::isfinite(weight) && weight > 0.0f);
+        const Hit hit = hit_of(s, fragment, ray);
+        const Material material = footprint_material(s);
+        const Rgb albedo = s.diffuse * local_share(s.reflectivity, s.transparency);
+        const Rgb local = add_direct_light(m_scene.ambient * albedo, hit, material, albedo, work);
+        if (depth >= m_max_depth) {
+            return local;
+        }
+        return add_secondary(local, s, hit, depth, weight, work);
+    }
+
+    /// `result` plus what the lights deliver to the hit, each through its shadow cone.
+    Rgb add_direct_light(Rgb result, const Hit& hit, const Material& material, const Rgb& albedo,
+                         ConeWork& work) const {
+        const Vec3f& p = hit.position;
+        const Vec3f& ns = hit.normal;
+        const Vec3f wo = -hit.direction;
+        for (const PointLight& light : m_scene.point_lights) {
+            const LightSample sample = sample_point_light(light, p);
+            const float cosine = ns.dot(sample.wi);
+            if (cosine <= 0.0f || (sample.irradiance <= 0.0f).all()) {
+                continue;
             }
             ++work.rays.shadow;
-            const float visible = visibility(p, at_hit, light, area, cosine, work);
+            const float visible = visibility(p, hit.footprint, sample, nullptr, cosine, work);
             if (visible > 0.0f) {
-                result += visible * light.irradiance * cosine *
-                          phong_brdf(material, albedo, ns, light.wi, wo);
+                result += visible * sample.irradiance * cosine *
+                          phong_brdf(material, albedo, ns, sample.wi, wo);
             }
-        };
-        for (const PointLight& light : m_scene.point_lights) {
-            add_light(sample_point_light(light, p), nullptr);
         }
         for (const EllipticalAreaLight& light : m_scene.area_lights) {
             // The light's whole extent gives the unoccluded irradiance and the highlight
-            // (trace/render/area_light.h); the shadow cone towards its centre, widened by its ellipse,
-            // gives the share of it that is visible.
+            // (trace/render/area_light.h); the shadow cone towards its centre, widened by its
+            // ellipse, gives the share of it that is visible.
             const LightSample sample = sample_area_light_centre(light, p);
             const Rgb unoccluded = area_light_unoccluded(light, p, ns, wo, material, albedo);
             if (!(unoccluded.maxCoeff() > 0.0f)) {
@@ -197,61 +262,72 @@ class ConeTracer {
             ++work.rays.shadow;
             // A light straddling the tangent plane still gets its shadow cone towards the
             // centre, started as a grazing cone would be.
-            const float cosine = std::max(ns.dot(sample.wi), 1e-3f);
-            const float visible = visibility(p, at_hit, sample, &light, cosine, work);
+            const float cosine = std::max(ns.dot(sample.wi), kGrazingLightCosine);
+            const float visible = visibility(p, hit.footprint, sample, &light, cosine, work);
             if (visible > 0.0f) {
                 result += visible * unoccluded;
             }
         }
-        if (depth >= m_max_depth) {
-            return result;
-        }
+        return result;
+    }
 
-        const Vec3f dn_dx = shape * at_hit.dp_dx;
-        const Vec3f dn_dy = shape * at_hit.dp_dy;
-        float reflect_weight = s.reflectivity;
+    /// The fraction of the footprint's Gaussian that refracts at the hit, where a ray refracts
+    /// when k = 1 − η²(1 − cos²θ) > 0. To first order in the pixel offset, dk = 2η²·cos θ·
+    /// d(cos θ) with d(cos θ) = −(dD·N + D·dN); over the footprint's Gaussian exp(−|x|²) the
+    /// share with k > 0 is ½·erfc(−k / |∇k|): 0 or 1 but where the footprint straddles the
+    /// critical angle.
+    static float refracted_fraction(const Hit& hit, const Vec3f& dn_dx, const Vec3f& dn_dy,
+                                    float eta, float cos_i) {
+        const Vec3f& d = hit.direction;
+        const Vec3f& ns = hit.normal;
+        const float k = 1.0f - eta * eta * (1.0f - cos_i * cos_i);
+        const float dk_dx =
+            -2.0f * eta * eta * cos_i * (hit.footprint.dd_dx.dot(ns) + d.dot(dn_dx));
+        const float dk_dy =
+            -2.0f * eta * eta * cos_i * (hit.footprint.dd_dy.dot(ns) + d.dot(dn_dy));
+        const float spread = std::hypot(dk_dx, dk_dy);
+        if (spread > 0.0f && std::isfinite(spread)) {
+            return 0.5f * std::erfc(-k / spread);
+        }
+        return k > 0.0f ? 1.0f : 0.0f;
+    }
+
+    /// `local` plus the refracted and reflected cones, weighted as every tracer's ray tree
+    /// (trace/render/scattering.h); the transmitted share is split between them by the fraction
+    /// of the footprint that refracts.
+    Rgb add_secondary(const Rgb& local, const ConeSurface& s, const Hit& hit, int depth,
+                      float weight, ConeWork& work) const {
+        const Vec3f& d = hit.direction;
+        const Vec3f& ns = hit.normal;
+        const Vec3f dn_dx = hit.shape * hit.footprint.dp_dx;
+        const Vec3f dn_dy = hit.shape * hit.footprint.dp_dy;
+        const float eta = hit.entering ? 1.0f / std::max(s.ior, kMinimumIor) : s.ior;
+        const float cos_i = std::min(1.0f, -d.dot(ns));
+        float refracted = 0.0f;
         if (s.transparency > 0.0f) {
-            const float eta = entering ? 1.0f / std::max(s.ior, 1e-3f) : s.ior;
-            const float cos_i = std::min(1.0f, -d.dot(ns));
-            const float k = 1.0f - eta * eta * (1.0f - cos_i * cos_i);
-            // k = 1 − η²(1 − cos²θ) across the footprint, to first order in the pixel offset:
-            // dk = 2η²·cos θ·d(cos θ), d(cos θ) = −(dD·N + D·dN). Over the footprint's Gaussian
-            // exp(−|x|²) the share with k > 0 is ½·erfc(−k / |∇k|).
-            const float dk_dx = -2.0f * eta * eta * cos_i * (at_hit.dd_dx.dot(ns) + d.dot(dn_dx));
-            const float dk_dy = -2.0f * eta * eta * cos_i * (at_hit.dd_dy.dot(ns) + d.dot(dn_dy));
-            const float spread = std::hypot(dk_dx, dk_dy);
-            float refracted = k > 0.0f ? 1.0f : 0.0f;
-            if (spread > 0.0f && std::isfinite(spread)) {
-                refracted = 0.5f * std::erfc(-k / spread);
-            }
-            if (refracted > 1e-3f && refracted < 1.0f - 1e-3f) {
+            refracted = refracted_fraction(hit, dn_dx, dn_dy, eta, cos_i);
+            if (refracted > kStraddleShare && refracted < 1.0f - kStraddleShare) {
                 ++work.stats.straddled_critical_angle;
             }
-            reflect_weight += s.transparency * (1.0f - refracted);
-            const float share = s.transparency * refracted;
-            if (share > 0.0f && weight * share >= kMinimumWeight) {
-                // Past the critical angle at the centre the refracted part leaves along the
-                // surface: the critical direction.
-                Vec3f direction =
-                    refract(d, ns, eta).value_or(Vec3f((eta * d + eta * cos_i * ns).normalized()));
-                if (direction.dot(ns) > 0.0f) {
-                    direction -= 2.0f * direction.dot(ns) * ns;
-                }
-                const RayDifferential rd = at_hit.refract(d, ns, dn_dx, dn_dy, eta);
-                result += share * secondary(p, direction, rd, ns, s.roughness, half_interval, depth,
-                                            weight * share, work);
-            }
         }
-        if (reflect_weight > 0.0f && weight * reflect_weight >= kMinimumWeight) {
-            Vec3f r = reflect(d, ns);
-            if (r.dot(ns) < 0.0f) {
-                r -= 2.0f * r.dot(ns) * ns;
-            }
-            const RayDifferential rd = at_hit.reflect(d, ns, dn_dx, dn_dy);
-            result += reflect_weight * secondary(p, r, rd, ns, s.roughness, half_interval, depth,
-                                                 weight * reflect_weight, work);
-        }
-        return result;
+        const BranchWeights branches = branch_weights(s.reflectivity, s.transparency, refracted);
+        const auto refract_branch = [&](float branch_weight) {
+            // Past the critical angle at the centre the refracted part leaves along the
+            // surface: the critical direction.
+            const Vec3f direction = fold_to_side(
+                refract(d, ns, eta).value_or(Vec3f((eta * d + eta * cos_i * ns).normalized())), ns,
+                false);
+            const RayDifferential rd = hit.footprint.refract(d, ns, dn_dx, dn_dy, eta);
+            return secondary(hit.position, direction, rd, ns, s.roughness, hit.half_interval, depth,
+                             branch_weight, work);
+        };
+        const auto reflect_branch = [&](float branch_weight) {
+            const Vec3f direction = fold_to_side(reflect(d, ns), ns, true);
+            const RayDifferential rd = hit.footprint.reflect(d, ns, dn_dx, dn_dy);
+            return secondary(hit.position, direction, rd, ns, s.roughness, hit.half_interval, depth,
+                             branch_weight, work);
+        };
+        return add_branches(local, weight, branches, refract_branch, reflect_branch);
     }
 
     Rgb secondary(const Vec3f& p, const Vec3f& direction, const RayDifferential& rd,
@@ -294,7 +370,8 @@ class ConeTracer {
                      0.5f * light.distance);
         ABuffer<ConeOpacity> buffer;
         const auto start = Clock::now();
-        m_traversal.trace(ray, t_min, light.distance * 0.999f, buffer, work.stats.shadow);
+        m_traversal.trace(ray, t_min, light.distance * kShadowEndFraction, buffer,
+                          work.stats.shadow);
         work.stats.shadow.abuffer += buffer.stats();
         work.stats.shadow_seconds += std::chrono::duration<double>(Clock::now() - start).count();
         return buffer
@@ -402,13 +479,15 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
         if (aperture > 0.0f) {
             // The aperture's cone: the lens disc at the lens, nothing in focus.
             const float focus =
-                scene.camera.focal_distance / std::max(ray.direction.dot(camera.forward()), 1e-3f);
+                scene.camera.focal_distance /
+                std::max(ray.direction.dot(camera.forward()), kMinimumForwardCosine);
             const float b = aperture / std::sqrt(2.0f);
             ray.cone.add_blur(b * Mat2f::Identity(), (-b / focus) * Mat2f::Identity());
         }
         return ray;
     };
     const PrimarySplit split = primary_split(camera, options.filter, scale);
+    MRT_CHECK(split.cells >= 1 && split.cells <= kMaximumPrimaryCells && split.cell > 0.0f);
     // The cone is the pixel's filter: each pixel's one sample is its value.
     Film film(options.width, options.height, PixelFilter::box(), options.crop);
     tbb::enumerable_thread_specific<ConeWork> work;
@@ -452,6 +531,7 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
                             weight_sum += w;
                         }
                     }
+                    MRT_DCHECK(weight_sum > 0.0f);
                     radiance /= weight_sum;
                 }
                 if (stop.load(std::memory_order_relaxed)) {

@@ -1,8 +1,8 @@
 #include "trace/cone/cone_traversal.h"
 
 #include "common/footprint/footprint.h"
-#include "common/math/invertibility.h"
 #include "common/footprint/point_weight.h"
+#include "common/math/invertibility.h"
 #include "common/math/quantization.h"
 #include "trace/cone/cone_bounds.h"
 
@@ -54,13 +54,28 @@ constexpr float kEnteringCosine = 0.1f;
 /// Per-vertex footprints need every vertex this far from the apex relative to the farthest.
 constexpr float kApexRatio = 0.25f;
 
+/// The cosine grazing_tangent divides by is floored to this, so that the quotient stays finite at
+/// cos 0; the limits (at most 2, reached at cos 0.447) take over long before it matters.
+constexpr float kMinimumGrazingCosine = 1e-6f;
+
+/// A cluster's or triangle's bounding sphere is widened by this fraction of its radius, and by
+/// kBoundAbsoluteMargin: rounding of the centre and of the ray frame's offsets must not make a
+/// sphere miss what it bounds (a hundred float roundings); the absolute margin keeps a
+/// single point's sphere of radius 0 a sphere.
+constexpr float kBoundRelativeMargin = 1e-5f;
+constexpr float kBoundAbsoluteMargin = 1e-30f;
+
+float padded_bound(float radius) {
+    return radius * (1.0f + kBoundRelativeMargin) + kBoundAbsoluteMargin;
+}
+
 /// tan of the angle between the ray and the surface's plane, from |n·d| = cos of the angle to
 /// the normal: how far apart in depth two points of the surface a lateral unit apart are; at
 /// most `limit`.
 float grazing_tangent(float normal_dot_direction, float limit) {
     const float c = std::abs(normal_dot_direction);
     const float s = std::sqrt(std::max(0.0f, 1.0f - c * c));
-    return std::min(s / std::max(c, 1e-6f), limit);
+    return std::min(s / std::max(c, kMinimumGrazingCosine), limit);
 }
 
 /// A cone seen from one object's space, and how that space maps to the world.
@@ -760,7 +775,7 @@ void cluster(const HierarchyNode& node, std::vector<std::uint32_t> items, Positi
             r = std::max(r, (position(keyed[i].second) - centre).norm() + radius(keyed[i].second));
         }
         clusters.push_back({{centre.x(), centre.y(), centre.z()},
-                            r * (1.0f + 1e-5f) + 1e-30f,
+                            padded_bound(r),
                             static_cast<std::uint32_t>(order.size()),
                             static_cast<std::uint32_t>(last - first)});
         for (std::size_t i = first; i < last; ++i) {
@@ -828,8 +843,7 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
             const std::uint32_t t = m_triangle_order[j];
             const Vec3f m = centroid(t);
             // Rounding of the centre and of the ray frame's offsets: a relative margin.
-            m_triangle_bounds.push_back(
-                {{m.x(), m.y(), m.z()}, extent(t) * (1.0f + 1e-5f) + 1e-30f});
+            m_triangle_bounds.push_back({{m.x(), m.y(), m.z()}, padded_bound(extent(t))});
         }
     }
 }

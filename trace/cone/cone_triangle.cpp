@@ -25,9 +25,23 @@ constexpr std::array<double, 4> kNodes{0.1834346424956498, 0.5255324099163290, 0
 constexpr std::array<double, 4> kWeights{0.3626837833783620, 0.3137066458778873, 0.2223810344533745,
                                          0.1012285362903763};
 
+/// Below this x, (1 − e^(−x))/x is taken as its series 1 − x/2, which at x = 0 is not 0/0: the
+/// series' next term, x²/6, is below double's rounding of 1 there, so the switch is seamless.
+constexpr double kSeriesBelow = 1e-8;
+
+/// A vanishing minor axis (an unclamped, degenerate footprint) is floored to this fraction of the
+/// major one, far below any anisotropy clamp (8² = 64 by default), so the Gaussian's map stays
+/// finite: its minor semi-axis is then a millionth of the major.
+constexpr float kMinimumMinorRatio = 1e-12f;
+
+/// A triangle's plane is edge-on to the cone's axis where the cosine between its normal and the
+/// axis, in ray coordinates, is below this (87° from the normal): there the depth where the axis
+/// meets the plane runs away, and the hit keeps a depth within the triangle's own.
+constexpr double kEdgeOnCosine = 0.05;
+
 /// (1 − e^(−x))/x, entire: 1 at x = 0.
 double one_minus_exp_over(double x) {
-    return x < 1e-8 ? 1.0 - 0.5 * x : -std::expm1(-x) / x;
+    return x < kSeriesBelow ? 1.0 - 0.5 * x : -std::expm1(-x) / x;
 }
 
 /// The Gaussian mass exp(−|y|²)/π of the right triangle with corners at the origin, at the
@@ -165,7 +179,7 @@ GaussianFrame GaussianFrame::of_ellipse(const SymmetricEigen2& e) {
     }
     // A vanishing minor axis (an unclamped, degenerate footprint) is floored far below any
     // clamp, so the map stays finite.
-    const float minor = std::max(e.minor, 1e-12f * e.major);
+    const float minor = std::max(e.minor, kMinimumMinorRatio * e.major);
     frame.axis = e.major_axis;
     frame.inverse_semi_axes = {1.0f / std::sqrt(e.major), 1.0f / std::sqrt(minor)};
     return frame;
@@ -268,14 +282,15 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
             // The depth is where the axis meets the triangle's plane even when it passes
             // beside the triangle, so that the triangles of one surface (and its points)
             // agree on the depth at the axis — unless the plane is nearly edge-on to the axis
-            // (|n·d| below 0.05), where that depth runs away: kept within the triangle's own.
+            // (|n·d| below kEdgeOnCosine), where that depth runs away: kept within the triangle's
+            // own.
             plane_t = (1.0 - b1 - b2) * vertices[0].t + b1 * vertices[1].t + b2 * vertices[2].t;
             const double dt1 = static_cast<double>(vertices[1].t) - vertices[0].t;
             const double dt2 = static_cast<double>(vertices[2].t) - vertices[0].t;
             // The plane's normal in ray coordinates (u, v, t): (e1, dt1) × (e2, dt2).
             const Eigen::Vector3d normal(e1.y() * dt2 - dt1 * e2.y(), dt1 * e2.x() - e1.x() * dt2,
                                          det);
-            edge_on = std::abs(det) < 0.05 * normal.norm();
+            edge_on = std::abs(det) < kEdgeOnCosine * normal.norm();
         }
     }
     const float b0 = 1.0f - hit.b1 - hit.b2;

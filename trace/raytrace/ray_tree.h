@@ -13,21 +13,24 @@
 #include "common/footprint/footprint.h"
 #include "common/math/sampling.h"
 #include "common/scene/scene.h"
+#include "common/system/check.h"
 #include "common/texture/texture.h"
+#include "trace/bvh/scene_bvh.h"
+#include "trace/raytrace/surface_point.h"
 #include "trace/render/area_light.h"
 #include "trace/render/render.h"
-#include "trace/bvh/scene_bvh.h"
+#include "trace/render/scattering.h"
 #include "trace/render/shading.h"
-#include "trace/raytrace/surface_point.h"
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace mrt {
 
 struct CentreSampling {
-    /// Area lights give their exact unoccluded irradiance and highlight (trace/render/area_light.h),
-    /// times the hard shadow towards their centre.
+    /// Area lights give their exact unoccluded irradiance and highlight
+    /// (trace/render/area_light.h), times the hard shadow towards their centre.
     static constexpr bool kWholeAreaLights = true;
     LightSample area_light(const EllipticalAreaLight& light, const Vec3f& p) const {
         return sample_area_light_centre(light, p);
@@ -55,17 +58,6 @@ class StochasticSampling {
   private:
     StratifiedSampler& m_sampler;
 };
-
-/// A direction on the wrong side of the geometric surface (a glossy spread or an interpolated
-/// normal sending a reflection into the surface, or a transmission back out) is mirrored about
-/// the tangent plane: the energy stays with the branch instead of being lost or leaking.
-inline Vec3f fold_to_side(const Vec3f& direction, const Vec3f& geometric_normal, bool above) {
-    const float side = direction.dot(geometric_normal);
-    if (above ? side > 0.0f : side < 0.0f) {
-        return direction;
-    }
-    return direction - 2.0f * side * geometric_normal;
-}
 
 /// The mirror reflection at a hit: its direction and the normal (with derivatives) it mirrors
 /// about. That is the shading normal, unless an interpolated normal would mirror the ray below
@@ -102,6 +94,11 @@ struct RayFootprint {
     }
 };
 
+/// The cosine of incidence below which the `distance` texture filter stops widening the footprint
+/// by 1/cos. It only keeps the width finite for a ray parallel to the surface: at 1e-3 (89.94°)
+/// the width is already a thousand times the face-on one.
+inline constexpr float kMinimumFootprintCosine = 1e-3f;
+
 /// Pixel differentials shrink with the samples sharing a pixel, but never below an eighth of a
 /// pixel, so textures are not under-filtered at high sample counts (pbrt-v4's rule).
 inline float footprint_scale(int samples_per_pixel) {
@@ -136,10 +133,6 @@ class RayTree {
         const RayFootprint footprint = RayFootprint::camera(differential());
         return radiance(ray, 0, counters, sampling, 1.0f, &footprint);
     }
-
-    /// Branches of the ray tree whose contribution to the pixel is scaled below this are not
-    /// traced (Hall & Greenberg 1983, adaptive tree depth control): a tenth of an 8-bit step.
-    static constexpr float kMinimumWeight = 1.0f / 2550.0f;
 
   private:
     Rgb direct_light(const SurfacePoint& sp, const Material& material, const Rgb& albedo,
@@ -208,6 +201,8 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     }
     const Vec3f d = ray.direction.normalized();
     const SurfacePoint sp = make_surface_point(m_scene, hit, d);
+    MRT_DCHECK(sp.material < m_scene.materials.size());
+    MRT_DCHECK(std::isfinite(weight) && weight > 0.0f);
     const Material& material = m_scene.materials[sp.material];
     const Vec3f wo = -d;
 
@@ -229,14 +224,15 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     }
 
     // Light not mirrored or transmitted is scattered locally (ambient + Phong).
-    const float local_weight = std::max(0.0f, 1.0f - material.reflectivity - material.transparency);
+    const float local_weight = local_share(material.reflectivity, material.transparency);
     Rgb albedo;
     if (footprint != nullptr && material.texture >= 0) {
         UvFootprint uv_footprint{surface.duv_dx, surface.duv_dy};
         if (m_textures.filter() == TextureFilter::Distance) {
             // Igehy Fig. 3b: the width the pixel cone has after the distance travelled, spread
             // over the surface by the angle of incidence, isotropic in texture space.
-            const float cosine = std::max(std::abs(d.dot(sp.geometric_normal)), 1e-3f);
+            const float cosine =
+                std::max(std::abs(d.dot(sp.geometric_normal)), kMinimumFootprintCosine);
             const float width = travelled * footprint->spread / cosine * surface.uv_per_length;
             uv_footprint = {Vec2f(width, 0.0f), Vec2f(0.0f, width)};
         }
@@ -250,46 +246,38 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
         return result;
     }
 
-    float reflect_weight = material.reflectivity;
-    if (material.refracts()) {
-        const float eta = sp.entering ? 1.0f / material.ior : material.ior;
-        if (const auto t = refract(d, sp.shading_normal, eta)) {
-            if (weight * material.transparency >= kMinimumWeight) {
-                ++counters.secondary;
-                const Vec3f spread = fold_to_side(sampling.spread(*t, material.roughness),
-                                                  sp.geometric_normal, false);
-                const Ray refracted{sp.spawn_origin(spread), spread, kInfinity};
-                RayFootprint child;
-                if (footprint != nullptr) {
-                    child = {
-                        at_hit.refract(d, sp.shading_normal, surface.dn_dx, surface.dn_dy, eta),
-                        travelled, footprint->spread};
-                }
-                result += material.transparency * radiance(refracted, depth + 1, counters, sampling,
-                                                           weight * material.transparency,
-                                                           footprint != nullptr ? &child : nullptr);
-            }
-        } else {
-            // Total internal reflection: the transmitted share is mirrored instead.
-            reflect_weight += material.transparency;
-        }
-    }
-    if (reflect_weight > 0.0f && weight * reflect_weight >= kMinimumWeight) {
-        const Mirror mirror = mirror_at(d, sp, surface);
-        const Vec3f r = fold_to_side(sampling.spread(mirror.direction, material.roughness),
-                                     sp.geometric_normal, true);
+    const float eta = sp.entering ? 1.0f / material.ior : material.ior;
+    const std::optional<Vec3f> transmitted =
+        material.refracts() ? refract(d, sp.shading_normal, eta) : std::nullopt;
+    // Total internal reflection: the transmitted share is mirrored instead.
+    const BranchWeights branches = branch_weights(material.reflectivity, material.transparency,
+                                                  transmitted.has_value() ? 1.0f : 0.0f);
+    // A secondary ray along `direction`, carrying the differential `child()` when footprints are.
+    const auto branch = [&](const Vec3f& direction, float branch_weight, const auto& child) {
         ++counters.secondary;
-        const Ray reflected{sp.spawn_origin(r), r, kInfinity};
-        RayFootprint child;
+        const Ray secondary{sp.spawn_origin(direction), direction, kInfinity};
+        RayFootprint child_footprint;
         if (footprint != nullptr) {
-            child = {at_hit.reflect(d, mirror.normal, mirror.dn_dx, mirror.dn_dy), travelled,
-                     footprint->spread};
+            child_footprint = {child(), travelled, footprint->spread};
         }
-        result += reflect_weight * radiance(reflected, depth + 1, counters, sampling,
-                                            weight * reflect_weight,
-                                            footprint != nullptr ? &child : nullptr);
-    }
-    return result;
+        return radiance(secondary, depth + 1, counters, sampling, branch_weight,
+                        footprint != nullptr ? &child_footprint : nullptr);
+    };
+    const auto refracted = [&](float branch_weight) {
+        const Vec3f direction = fold_to_side(sampling.spread(*transmitted, material.roughness),
+                                             sp.geometric_normal, false);
+        return branch(direction, branch_weight, [&] {
+            return at_hit.refract(d, sp.shading_normal, surface.dn_dx, surface.dn_dy, eta);
+        });
+    };
+    const auto reflected = [&](float branch_weight) {
+        const Mirror mirror = mirror_at(d, sp, surface);
+        const Vec3f direction = fold_to_side(sampling.spread(mirror.direction, material.roughness),
+                                             sp.geometric_normal, true);
+        return branch(direction, branch_weight,
+                      [&] { return at_hit.reflect(d, mirror.normal, mirror.dn_dx, mirror.dn_dy); });
+    };
+    return add_branches(result, weight, branches, refracted, reflected);
 }
 
 }  // namespace mrt

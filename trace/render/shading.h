@@ -6,6 +6,7 @@
 #include "common/math/math.h"
 #include "common/scene/scene.h"
 
+#include <algorithm>
 #include <optional>
 
 namespace mrt {
@@ -24,6 +25,20 @@ std::optional<Vec3f> refract(const Vec3f& d, const Vec3f& n, float eta);
 /// mirror of wi about n (energy-conserving for albedo + specular ≤ 1).
 Rgb phong_brdf(const Material& material, const Rgb& diffuse_albedo, const Vec3f& n, const Vec3f& wi,
                const Vec3f& wo);
+
+/// The mean-normal length below which toksvig_exponent stops following it. Only a floor for
+/// the formula: at |n̄| = 0 with an exponent of 0 it is 0/0. Normals that cancel to 1e-3 already
+/// give an exponent below 1e-3/(1 − 1e-3) whatever e: a highlight spread over the hemisphere.
+inline constexpr float kMinimumNormalAgreement = 1e-3f;
+
+/// The Phong exponent of a footprint over which the unit normals spread, leaving a mean normal of
+/// length `mean_normal_length` (1 where they agree): Toksvig's (2005) e·|n̄| / (|n̄| + e·(1 − |n̄|)),
+/// as mip-mapped normal maps use. One normal for the footprint would give a detailed surface seen
+/// from afar one coherent highlight where the surface has scattered glints.
+inline float toksvig_exponent(float phong_exponent, float mean_normal_length) {
+    const float agreement = std::clamp(mean_normal_length, kMinimumNormalAgreement, 1.0f);
+    return phong_exponent * agreement / (agreement + phong_exponent * (1.0f - agreement));
+}
 
 /// Light arriving at a point from one point-like emitter.
 struct LightSample {
