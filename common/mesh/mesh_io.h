@@ -1,6 +1,6 @@
 #pragma once
 // Loading mesh files through OpenMesh (OBJ, PLY, OFF, STL). OpenMesh is included only in
-// mesh_io.cpp.
+// openmesh_import.cpp.
 
 #include "common/mesh/mesh.h"
 
