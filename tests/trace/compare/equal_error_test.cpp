@@ -276,21 +276,25 @@ TEST(DerivedFigures, CurvesGroupTheRunsThatDifferOnlyInTheirSampleCounts) {
               "whitted (differentials=always)");
 }
 
+/// Distributed runs with RMSE = 0.1·t^-1/2 at t = 1, 4, 16.
+std::vector<mrt::RunResult> distributed_power_law() {
+    return {run("distributed:spp-max=16", 1.0, 0.1), run("distributed:spp-max=64", 4.0, 0.05),
+            run("distributed:spp-max=256", 16.0, 0.025)};
+}
+
 // Three curves with closed forms, and the figures worked out by hand:
 //   whitted      RMSE = 0.2·t^-1/4 at t = 0.25, 1
 //   distributed  RMSE = 0.1·t^-1/2 at t = 1, 4, 16, and a dominated run at t = 8 (0.06 > 0.05)
 //   cone         one run, t = 0.5, RMSE 0.04: the baseline.
 // The curves span RMSE [0.025, 0.2·0.25^-1/4 = 0.283]: of the fixed levels only 0.05 is inside.
 TEST(DerivedFigures, EqualTimeAndEqualErrorFromPowerLaws) {
-    const std::vector<mrt::RunResult> runs = {
-        run("whitted:spp=4", 0.25, 0.2 * std::pow(0.25, -0.25)),
-        run("whitted:spp=16", 1.0, 0.2),
-        run("distributed:spp-max=16", 1.0, 0.1),
-        run("distributed:spp-max=64", 4.0, 0.05),
-        run("distributed:spp-max=256", 16.0, 0.025),
-        run("distributed:spp-max=999", 8.0, 0.06),
-        run("cone", 0.5, 0.04),
-    };
+    std::vector<mrt::RunResult> runs = {run("whitted:spp=4", 0.25, 0.2 * std::pow(0.25, -0.25)),
+                                        run("whitted:spp=16", 1.0, 0.2)};
+    for (const mrt::RunResult& r : distributed_power_law()) {
+        runs.push_back(r);
+    }
+    runs.push_back(run("distributed:spp-max=999", 8.0, 0.06));
+    runs.push_back(run("cone", 0.5, 0.04));
     const auto d = mrt::derived_figures(runs);
     ASSERT_TRUE(d);
     EXPECT_EQ(d->baseline, 6u);
@@ -333,15 +337,11 @@ TEST(DerivedFigures, EqualTimeAndEqualErrorFromPowerLaws) {
 TEST(DerivedFigures, WithoutConeTheFastestWhittedRunIsTheBaseline) {
     // Whitted RMSE = 0.4·t^-1/2, distributed 0.1·t^-1/2: at 0.05 whitted needs 64 s,
     // distributed 4 s; at the baseline's 1 s distributed has 0.1.
-    const std::vector<mrt::RunResult> runs = {
-        run("distributed:spp-max=16", 1.0, 0.1),
-        run("distributed:spp-max=64", 4.0, 0.05),
-        run("distributed:spp-max=256", 16.0, 0.025),
-        run("whitted:spp=64", 64.0, 0.05),
-        run("whitted:spp=16", 16.0, 0.1),
-        run("whitted:spp=4", 4.0, 0.2),
-        run("whitted:spp=1", 1.0, 0.4),
-    };
+    std::vector<mrt::RunResult> runs = distributed_power_law();
+    for (const double t : {64.0, 16.0, 4.0, 1.0}) {
+        runs.push_back(
+            run("whitted:spp=" + std::to_string(static_cast<int>(t)), t, 0.4 / std::sqrt(t)));
+    }
     const auto d = mrt::derived_figures(runs);
     ASSERT_TRUE(d);
     EXPECT_EQ(runs[d->baseline].spec, "whitted:spp=1");
