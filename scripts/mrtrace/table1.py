@@ -68,7 +68,7 @@ def paper_row(row):
 
 def main():
     if len(sys.argv) < 3:
-        print(__doc__.strip().splitlines()[3], file=sys.stderr)
+        print("usage: python3 -m mrtrace.table1 BUILD_DIR SCENE.json...", file=sys.stderr)
         return 2
     build, scenes = sys.argv[1], sys.argv[2:]
     with tempfile.TemporaryDirectory(prefix="mrt-table1-") as work:
