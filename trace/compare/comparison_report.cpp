@@ -1,6 +1,7 @@
 #include "trace/compare/comparison_report.h"
 
 #include "common/system/atomic_file.h"
+#include "trace/compare/derived_figures.h"
 #include "trace/compare/headline_ratios.h"
 
 #include <fmt/format.h>
@@ -92,6 +93,80 @@ std::string csv_number(double v) {
     return fmt::format("{}", v);
 }
 
+json indices(const std::vector<std::size_t>& v) {
+    json a = json::array();
+    for (const std::size_t i : v) {
+        a.push_back(i);
+    }
+    return a;
+}
+
+/// A time to reach an error as the pages print it: the time or its bound, and how.
+json time_to_error_json(const std::optional<TimeToError>& t) {
+    if (!t) {
+        return nullptr;
+    }
+    return {{"seconds", number_or_null(t->seconds)},
+            {"relation", relation_name(relation_of(t->kind))},
+            {"how", how_of(t->kind)}};
+}
+
+/// results.json's "derived" (the layout is in the header above); null without a usable run.
+json derived_json(const std::vector<RunResult>& runs) {
+    const std::optional<DerivedFigures> d = derived_figures(runs);
+    if (!d) {
+        return nullptr;
+    }
+    const RunResult& base = runs[d->baseline];
+    json curves = json::array();
+    json time_to = json::object();
+    json equal_time = json::object();
+    json ratio = json::object();
+    json dominated = json::array();
+    for (std::size_t c = 0; c < d->curves.size(); ++c) {
+        const RunCurve& curve = d->curves[c];
+        curves.push_back({{"label", curve.label},
+                          {"runs", indices(curve.kept)},
+                          {"dominated", indices(curve.dominated)}});
+        json times = json::array();
+        for (const auto& t : d->time_to_error[c]) {
+            times.push_back(time_to_error_json(t));
+        }
+        time_to[curve.label] = times;
+        const auto& at = d->equal_time[c];
+        equal_time[curve.label] = at ? json(at->rmse) : json(nullptr);
+        ratio[curve.label] = at ? json(at->rmse / base.rmse) : json(nullptr);
+        for (const std::size_t i : curve.dominated) {
+            dominated.push_back({{"method", runs[i].method}, {"spec", runs[i].spec}});
+        }
+    }
+    json speedups = json::array();
+    for (const EqualErrorSpeedup& s : d->speedups) {
+        speedups.push_back({{"faster", d->curves[s.faster].label},
+                            {"slower", d->curves[s.slower].label},
+                            {"error", s.error},
+                            {"speedup", s.speedup},
+                            {"faster_seconds", s.faster_seconds},
+                            {"slower_seconds", s.slower_seconds}});
+    }
+    return {{"time", "render_seconds"},
+            {"baseline",
+             {{"run", d->baseline},
+              {"method", base.method},
+              {"curve", d->curves[d->baseline_curve].label},
+              {"spec", base.spec},
+              {"seconds", base.render_seconds},
+              {"rmse", base.rmse},
+              {"chosen_as", d->chosen_as}}},
+            {"levels", d->levels},
+            {"curves", curves},
+            {"time_to_error", time_to},
+            {"equal_time", equal_time},
+            {"error_ratio_at_equal_time", ratio},
+            {"speedup_at_equal_error", speedups},
+            {"dominated_runs", dominated}};
+}
+
 std::string seconds_text(double s) {
     return fmt::format("{:.3g} s", s);
 }
@@ -142,7 +217,8 @@ std::string results_json_text(const Comparison& c) {
                       {"exr", reference_exr_name(ref)},
                       {"origin", origin_name(ref.origin)}}},
                     {"runs", runs},
-                    {"headline", headline}};
+                    {"headline", headline},
+                    {"derived", derived_json(c.runs)}};
     return j.dump(2) + "\n";
 }
 

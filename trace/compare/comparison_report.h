@@ -9,9 +9,22 @@
 //              "samples", "rmse", "psnr", "ssim", "image", "error_image", "stats", "stopped",
 //              "display_rmse"}],
 //    "headline": {KEY: {"value", "relation", "numerator", "denominator", "numerator_value",
-//                       "denominator_value", "how"}}}
+//                       "denominator_value", "how"}},
+//    "derived": {"time": "render_seconds",
+//                "baseline": {"run", "method", "curve", "spec", "seconds", "rmse", "chosen_as"},
+//                "levels": [RMSE, ...],
+//                "curves": [{"label", "runs": [INDEX, ...], "dominated": [INDEX, ...]}],
+//                "time_to_error": {LABEL: [{"seconds", "relation", "how"} | null per level]},
+//                "equal_time": {LABEL: RMSE | null},
+//                "error_ratio_at_equal_time": {LABEL: RATIO | null},
+//                "speedup_at_equal_error": [{"faster", "slower", "error", "speedup",
+//                                            "faster_seconds", "slower_seconds"}],
+//                "dominated_runs": [{"method", "spec"}]} | null}
 // (the headline ratios the runs allow, headline_ratios.h; "relation" is "equal", "at most" or
-// "at least").
+// "at least". "derived" holds the equal-time and equal-error figures, derived_figures.h: the
+// curves' runs are indices into "runs", kept ones in order of time; a time to an error "at
+// most" is the fastest run's, which is already more accurate, "at least" the slowest's, which
+// is not; null where a curve says nothing. The pages and plots print these, computing none.)
 // Unknown values (an infinite PSNR, a reference's unknown spp) are null. results.csv has a
 // header and one row per run with the scalar fields of "runs" in the same order; there an
 // infinite PSNR is "inf" and an unknown value an empty field.

@@ -41,22 +41,8 @@ std::optional<HeadlineRatio> reach_ratio(const char* key, const BudgetCurve& cur
     r.value = reach->seconds / cone.render_seconds;
     const RunResult* run = curve.run_at(reach->seconds, reach->rmse);
     r.numerator = run != nullptr ? run->spec : "";
-    switch (reach->kind) {
-        case TimeToErrorKind::Measured:
-            r.how = "measured";
-            break;
-        case TimeToErrorKind::Interpolated:
-            r.how = "interpolated between two runs";
-            break;
-        case TimeToErrorKind::AtMost:
-            r.relation = RatioRelation::AtMost;
-            r.how = "even its fastest run is more accurate";
-            break;
-        case TimeToErrorKind::AtLeast:
-            r.relation = RatioRelation::AtLeast;
-            r.how = "no run reaches it";
-            break;
-    }
+    r.relation = relation_of(reach->kind);
+    r.how = how_of(reach->kind);
     return r;
 }
 
@@ -153,8 +139,7 @@ std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs) {
             r.value = at->rmse / cone->rmse;
             const RunResult* run = curve.run_at(at->seconds, at->rmse);
             r.numerator = run != nullptr ? run->spec : "";
-            r.how = at->kind == TimeToErrorKind::Measured ? "measured"
-                                                          : "interpolated between two runs";
+            r.how = how_of(at->kind);
             ratios.push_back(r);
         }
     }
@@ -163,6 +148,33 @@ std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs) {
         ratios.push_back(time_ratio("classic_over_cone_primary", *classic_primary, *cone_primary));
     }
     return ratios;
+}
+
+RatioRelation relation_of(TimeToErrorKind kind) {
+    switch (kind) {
+        case TimeToErrorKind::AtMost:
+            return RatioRelation::AtMost;
+        case TimeToErrorKind::AtLeast:
+            return RatioRelation::AtLeast;
+        case TimeToErrorKind::Measured:
+        case TimeToErrorKind::Interpolated:
+            break;
+    }
+    return RatioRelation::Equal;
+}
+
+const char* how_of(TimeToErrorKind kind) {
+    switch (kind) {
+        case TimeToErrorKind::Measured:
+            return "measured";
+        case TimeToErrorKind::Interpolated:
+            return "interpolated between two runs";
+        case TimeToErrorKind::AtMost:
+            return "even its fastest run is more accurate";
+        case TimeToErrorKind::AtLeast:
+            return "no run reaches it";
+    }
+    return "";
 }
 
 const char* relation_prefix(RatioRelation relation) {

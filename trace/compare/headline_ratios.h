@@ -56,6 +56,13 @@ BudgetCurve budget_curve(const std::vector<RunResult>& runs, const DefaultRun& k
 /// The ratios the runs allow, in the order listed above.
 std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs);
 
+/// A time_to_error answer's kind as a ratio's relation: a bound for AtMost and AtLeast.
+RatioRelation relation_of(TimeToErrorKind kind);
+
+/// How a time_to_error or rmse_at_time answer was obtained, in words: "measured",
+/// "interpolated between two runs", "even its fastest run is more accurate", "no run reaches it".
+const char* how_of(TimeToErrorKind kind);
+
 /// What goes before the value: "" for a value, "≤ " or "≥ " for a bound.
 const char* relation_prefix(RatioRelation relation);
 

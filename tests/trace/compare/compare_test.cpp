@@ -2,9 +2,9 @@
 // and the tool end to end (files, numbers recomputed from the written images, cache reuse and
 // invalidation, one-line errors).
 
-#include "common/system/error.h"
 #include "common/image/image.h"
 #include "common/image/image_metrics.h"
+#include "common/system/error.h"
 #include "tests/support/test_support.h"
 #include "trace/compare/child_process.h"
 #include "trace/compare/comparison.h"
@@ -428,6 +428,56 @@ TEST(ComparisonReport, InfinitePsnrIsNullInJsonAndInfInCsv) {
     std::ostringstream table;
     mrt::print_results_table(table, c);
     EXPECT_TRUE(contains(table.str(), " inf ")) << table.str();
+}
+
+// The derived figures as results.json writes them, for runs whose curves are power laws worked
+// out by hand: distributed RMSE = 0.1·t^-1/2 at t = 1, 4 and 16; cone at 0.5 s, RMSE 0.04 (the
+// baseline, no distributed run that fast); whitted at 0.25 s, RMSE 0.3 (never as accurate).
+TEST(ComparisonReport, DerivedFiguresAreWrittenForThePages) {
+    mrt::Comparison c = example_comparison();
+    const mrt::RunResult base = c.runs[0];
+    const auto with = [&](const std::string& spec, double seconds, double rmse) {
+        mrt::RunResult r = base;
+        r.spec = spec;
+        r.method = spec.substr(0, spec.find(':'));
+        r.render_seconds = seconds;
+        r.rmse = rmse;
+        return r;
+    };
+    c.runs = {with("whitted", 0.25, 0.3), with("distributed:spp-max=4", 1.0, 0.1),
+              with("distributed:spp-max=16", 4.0, 0.05),
+              with("distributed:spp-max=64", 16.0, 0.025), with("cone", 0.5, 0.04)};
+    const json d = json::parse(mrt::results_json_text(c))["derived"];
+    EXPECT_EQ(d["baseline"]["spec"], "cone");
+    EXPECT_EQ(d["baseline"]["run"], 4);
+    EXPECT_EQ(d["baseline"]["chosen_as"], "first cone run");
+    // The baseline's RMSE and, of the fixed levels, the one within [0.025, 0.3].
+    EXPECT_EQ(d["levels"], json::parse("[0.05, 0.04]"));
+    EXPECT_EQ(d["curves"][1]["label"], "distributed");
+    EXPECT_EQ(d["curves"][1]["runs"], json::parse("[1, 2, 3]"));
+    // Distributed reaches 0.05 at its 4 s run and 0.04 at (0.1 / 0.04)² = 6.25 s; cone is
+    // below 0.05 already (at most its 0.5 s); whitted never gets there (at least its 0.25 s).
+    const json& reach = d["time_to_error"]["distributed"];
+    EXPECT_EQ(reach[0]["how"], "measured");
+    EXPECT_EQ(reach[0]["seconds"], 4.0);
+    EXPECT_NEAR(reach[1]["seconds"].get<double>(), 6.25, 1e-12);
+    EXPECT_EQ(reach[1]["relation"], "equal");
+    EXPECT_EQ(d["time_to_error"]["cone"][0]["relation"], "at most");
+    EXPECT_EQ(d["time_to_error"]["cone"][0]["seconds"], 0.5);
+    EXPECT_EQ(d["time_to_error"]["whitted"][1]["relation"], "at least");
+    EXPECT_EQ(d["time_to_error"]["whitted"][1]["seconds"], 0.25);
+    EXPECT_TRUE(d["equal_time"]["distributed"].is_null());
+    EXPECT_EQ(d["error_ratio_at_equal_time"]["cone"], 1.0);
+    // Only at 0.04 do two curves both have a time: cone 0.5 s, distributed 6.25 s.
+    ASSERT_EQ(d["speedup_at_equal_error"].size(), 1u);
+    const json& s = d["speedup_at_equal_error"][0];
+    EXPECT_EQ(s["faster"], "cone");
+    EXPECT_EQ(s["slower"], "distributed");
+    EXPECT_NEAR(s["speedup"].get<double>(), 12.5, 1e-12);
+    EXPECT_TRUE(d["dominated_runs"].empty());
+
+    // Runs that equal the reference have nothing to plot.
+    EXPECT_TRUE(json::parse(mrt::results_json_text(example_comparison()))["derived"].is_null());
 }
 
 // ---------------------------------------------------------------------------------------------

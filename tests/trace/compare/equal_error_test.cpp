@@ -1,9 +1,11 @@
 // Reading a curve of error against time (equal_error.h), the search for the budget that reaches
-// an error, and the headline ratios built on them (headline_ratios.h). The curves are power
+// an error, and the headline ratios and equal-time and equal-error figures built on them
+// (headline_ratios.h, derived_figures.h). The curves are power
 // laws, on which the log–log line between two runs is exact, so every interpolation has an
 // analytic answer.
 
 #include "trace/compare/equal_error.h"
+#include "trace/compare/derived_figures.h"
 #include "trace/compare/headline_ratios.h"
 #include "trace/compare/method_spec.h"
 
@@ -260,6 +262,99 @@ TEST(HeadlineRatios, BoundsAreSaidAndMissingRunsLeaveTheirRatioOut) {
     EXPECT_EQ(never->relation, mrt::RatioRelation::AtLeast);
     EXPECT_DOUBLE_EQ(never->value, 0.8);
     EXPECT_TRUE(mrt::headline_ratios({}).empty());
+}
+
+TEST(DerivedFigures, CurvesGroupTheRunsThatDifferOnlyInTheirSampleCounts) {
+    EXPECT_EQ(mrt::curve_label("whitted"), "whitted");
+    EXPECT_EQ(mrt::curve_label("whitted:spp=4"), "whitted");
+    EXPECT_EQ(mrt::curve_label("distributed:spp-max=16,spp-initial=4"), "distributed");
+    EXPECT_EQ(mrt::curve_label("whitted:spp=4,texture-filter=trilinear"),
+              "whitted (texture-filter=trilinear)");
+    EXPECT_EQ(mrt::curve_label("distributed:time-budget=2,texture-filter=none"),
+              "distributed (time budget, texture-filter=none)");
+    EXPECT_EQ(mrt::curve_label("whitted:differentials=always,spp=1"),
+              "whitted (differentials=always)");
+}
+
+/// Distributed runs with RMSE = 0.1·t^-1/2 at t = 1, 4, 16.
+std::vector<mrt::RunResult> distributed_power_law() {
+    return {run("distributed:spp-max=16", 1.0, 0.1), run("distributed:spp-max=64", 4.0, 0.05),
+            run("distributed:spp-max=256", 16.0, 0.025)};
+}
+
+// Three curves with closed forms, and the figures worked out by hand:
+//   whitted      RMSE = 0.2·t^-1/4 at t = 0.25, 1
+//   distributed  RMSE = 0.1·t^-1/2 at t = 1, 4, 16, and a dominated run at t = 8 (0.06 > 0.05)
+//   cone         one run, t = 0.5, RMSE 0.04: the baseline.
+// The curves span RMSE [0.025, 0.2·0.25^-1/4 = 0.283]: of the fixed levels only 0.05 is inside.
+TEST(DerivedFigures, EqualTimeAndEqualErrorFromPowerLaws) {
+    std::vector<mrt::RunResult> runs = {run("whitted:spp=4", 0.25, 0.2 * std::pow(0.25, -0.25)),
+                                        run("whitted:spp=16", 1.0, 0.2)};
+    for (const mrt::RunResult& r : distributed_power_law()) {
+        runs.push_back(r);
+    }
+    runs.push_back(run("distributed:spp-max=999", 8.0, 0.06));
+    runs.push_back(run("cone", 0.5, 0.04));
+    const auto d = mrt::derived_figures(runs);
+    ASSERT_TRUE(d);
+    EXPECT_EQ(d->baseline, 6u);
+    EXPECT_EQ(d->chosen_as, "first cone run");
+    ASSERT_EQ(d->curves.size(), 3u);
+    EXPECT_EQ(d->curves[1].label, "distributed");
+    EXPECT_EQ(d->curves[1].kept, (std::vector<std::size_t>{2, 3, 4}));
+    EXPECT_EQ(d->curves[1].dominated, (std::vector<std::size_t>{5}));
+    EXPECT_EQ(d->baseline_curve, 2u);
+    EXPECT_EQ(d->levels, (std::vector<double>{0.05, 0.04}));
+
+    // Distributed reaches 0.05 at its 4 s run and 0.04 at (0.1 / 0.04)² = 6.25 s.
+    const auto& distributed = d->time_to_error[1];
+    EXPECT_EQ(distributed[0]->kind, TimeToErrorKind::Measured);
+    EXPECT_EQ(distributed[0]->seconds, 4.0);
+    EXPECT_EQ(distributed[1]->kind, TimeToErrorKind::Interpolated);
+    EXPECT_NEAR(distributed[1]->seconds, 6.25, 1e-12);
+    // Whitted never gets below 0.2: at least its slowest run's 1 s; cone is below 0.05 already.
+    EXPECT_EQ(d->time_to_error[0][1]->kind, TimeToErrorKind::AtLeast);
+    EXPECT_EQ(d->time_to_error[0][1]->seconds, 1.0);
+    EXPECT_EQ(d->time_to_error[2][0]->kind, TimeToErrorKind::AtMost);
+    EXPECT_EQ(d->time_to_error[2][0]->seconds, 0.5);
+    EXPECT_EQ(d->time_to_error[2][1]->kind, TimeToErrorKind::Measured);
+
+    // At cone's 0.5 s whitted has 0.2·0.5^-1/4; distributed has no run that fast.
+    ASSERT_TRUE(d->equal_time[0]);
+    EXPECT_NEAR(d->equal_time[0]->rmse, 0.2 * std::pow(0.5, -0.25), 1e-12);
+    EXPECT_FALSE(d->equal_time[1]);
+    EXPECT_EQ(d->equal_time[2]->rmse, 0.04);
+
+    // The only level two curves both reach: 0.04, cone in 0.5 s, distributed in 6.25 s.
+    ASSERT_EQ(d->speedups.size(), 1u);
+    const mrt::EqualErrorSpeedup& s = d->speedups[0];
+    EXPECT_EQ(s.faster, 2u);
+    EXPECT_EQ(s.slower, 1u);
+    EXPECT_EQ(s.error, 0.04);
+    EXPECT_NEAR(s.speedup, 12.5, 1e-12);
+}
+
+TEST(DerivedFigures, WithoutConeTheFastestWhittedRunIsTheBaseline) {
+    // Whitted RMSE = 0.4·t^-1/2, distributed 0.1·t^-1/2: at 0.05 whitted needs 64 s,
+    // distributed 4 s; at the baseline's 1 s distributed has 0.1.
+    std::vector<mrt::RunResult> runs = distributed_power_law();
+    for (const double t : {64.0, 16.0, 4.0, 1.0}) {
+        runs.push_back(
+            run("whitted:spp=" + std::to_string(static_cast<int>(t)), t, 0.4 / std::sqrt(t)));
+    }
+    const auto d = mrt::derived_figures(runs);
+    ASSERT_TRUE(d);
+    EXPECT_EQ(runs[d->baseline].spec, "whitted:spp=1");
+    EXPECT_EQ(d->chosen_as, "fastest whitted run");
+    EXPECT_EQ(d->levels, (std::vector<double>{0.4, 0.05}));
+    EXPECT_NEAR(d->equal_time[0]->rmse, 0.1, 1e-12);
+    ASSERT_EQ(d->speedups.size(), 1u);
+    EXPECT_EQ(d->curves[d->speedups[0].faster].label, "distributed");
+    EXPECT_EQ(d->speedups[0].error, 0.05);
+    EXPECT_NEAR(d->speedups[0].speedup, 16.0, 1e-12);
+
+    EXPECT_FALSE(mrt::derived_figures({})) << "no runs";
+    EXPECT_FALSE(mrt::derived_figures({run("whitted", 0.1, 0.0)})) << "no usable RMSE";
 }
 
 }  // namespace

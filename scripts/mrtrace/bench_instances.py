@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Preprocessing time and peak memory against instance count (scripts/bench's `instances`
 section). Writes scenes of N instances of one 8-triangle sphere (segments 4, rings 2) in three
 layouts, for N = 1, 2, 4, … up to --max:
@@ -13,7 +12,7 @@ time and maximum resident set), with a time limit per run; the table shows CPU t
 busy machine disturbs less than wall time. Prints JSON (a list of runs) on stdout and a
 Markdown table on stderr; --out also writes the JSON to a file.
 
-Usage: scripts/bench_instances.py --preprocess build/bin/mrt-preprocess
+Usage: PYTHONPATH=scripts python3 -m mrtrace.bench_instances --preprocess build/bin/mrt-preprocess
            [--max 1024] [--layouts overlapping,list,tree] [--timeout 600] [--out FILE]
 """
 

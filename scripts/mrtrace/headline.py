@@ -1,18 +1,16 @@
-#!/usr/bin/env python3
 """The headline ratios of mrt-compare comparisons (results.json's "headline", computed by
 trace/compare/headline_ratios.cpp from runs of one invocation) as markdown, beside the figures the
-paper reports for them: one table per comparison (results_report.py), and a summary of several
-comparisons for the top of docs/results.md:
+paper reports for them: one table per comparison (mrtrace.page), and a summary of several
+comparisons for the index (mrtrace.index):
 
-    headline.py NAME=DIR [NAME=DIR ...]     # prints the summary table
+    python3 -m mrtrace.headline NAME=DIR [NAME=DIR ...]     # prints the summary table
 """
 
 import json
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from plot_error_time import fmt3  # noqa: E402
+from .results import RELATION_PREFIX, fmt3
 
 # key: (what it measures, the paper's figure, where the paper says it)
 RATIOS = {
@@ -36,11 +34,8 @@ RATIOS = {
         "§6, Figure 7: classic cone tracing of the triangles, primary rays only"),
 }
 
-PREFIX = {"equal": "", "at most": "≤ ", "at least": "≥ "}
-
-
 def value_text(ratio):
-    return PREFIX.get(ratio.get("relation"), "") + fmt3(ratio.get("value")) + "×"
+    return RELATION_PREFIX.get(ratio.get("relation"), "") + fmt3(ratio.get("value")) + "×"
 
 
 def load_headline(directory):
@@ -68,12 +63,15 @@ def scene_table(headline):
     return "\n".join(lines)
 
 
-def summary_table(named_dirs):
-    """Every comparison's ratios side by side, one row per ratio."""
+def summary_table(named_dirs, links=None):
+    """Every comparison's ratios side by side, one row per ratio; a comparison's name links to
+    links[name] when given."""
+    links = links or {}
     headlines = [(name, h) for name, h in ((n, load_headline(d)) for n, d in named_dirs) if h]
     if not headlines:
         return "No comparison has the runs the headline ratios need."
-    lines = ["| ratio | " + " | ".join(name for name, _ in headlines) + " | paper |",
+    names = [f"[{name}]({links[name]})" if name in links else name for name, _ in headlines]
+    lines = ["| ratio | " + " | ".join(names) + " | paper |",
              "|---|" + "--:|" * len(headlines) + "--:|"]
     for key, (what, paper, _) in RATIOS.items():
         cells = [value_text(h[key]) if key in h else "—" for _, h in headlines]
@@ -87,10 +85,10 @@ def main(argv):
     for arg in argv:
         name, sep, directory = arg.partition("=")
         if not sep or not name or not directory:
-            print(f"headline.py: expected NAME=DIR, got {arg!r}", file=sys.stderr)
+            print(f"mrtrace.headline: expected NAME=DIR, got {arg!r}", file=sys.stderr)
             return 2
         if not os.path.exists(os.path.join(directory, "results.json")):
-            print(f"headline.py: {directory}/results.json: no such file", file=sys.stderr)
+            print(f"mrtrace.headline: {directory}/results.json: no such file", file=sys.stderr)
             return 1
         named.append((name, directory))
     if not named:

@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """Enlarged crops of an mrt-compare comparison, side by side: one row per region of the image,
 one column per image (the reference, a run, a run's error image), pixels shown as squares. The
 discussion of docs/results.md points at its failures with these.
 
-    crops.py OUT.png --dir DIR --rect "LABEL:X0,Y0,X1,Y1" [--rect ...]
+    python3 -m mrtrace.crops OUT.png --dir DIR --rect "LABEL:X0,Y0,X1,Y1" [--rect ...]
              --column reference --column cone --column cone~error --column @equal-time ...
 
 A region is given in fractions of the image's width and height (so that the quick run's smaller
@@ -16,8 +15,7 @@ import json
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from plot_error_time import ResultsError, run_reporting_errors  # noqa: E402
+from .results import ResultsError, run_reporting_errors
 
 
 def parse_rect(text):
@@ -72,7 +70,7 @@ def draw(output, directory, rects, columns, scale):
         if column == "@equal-time" and "distributed_rmse_at_cone_time" not in \
                 results.get("headline", {}):
             # A cone faster than the smallest budget has no distributed run at its time.
-            print(f"crops.py: {directory}: no distributed run at cone's time; column left out",
+            print(f"mrtrace.crops: {directory}: no distributed run at cone's time; column left out",
                   file=sys.stderr)
             continue
         title, path = column_image(results, directory, column)
@@ -109,7 +107,7 @@ def draw(output, directory, rects, columns, scale):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="mrtrace.crops", description=__doc__.split("\n\n")[0])
     parser.add_argument("output", metavar="OUT.png")
     parser.add_argument("--dir", required=True, help="the comparison's directory (results.json)")
     parser.add_argument("--rect", type=parse_rect, action="append", required=True,
@@ -120,9 +118,8 @@ def main(argv=None):
                         help="screen pixels per image pixel (default: about 480 for the widest "
                              "region, at least 2)")
     args = parser.parse_args(argv)
-    prog = os.path.basename(sys.argv[0])
     ok = run_reporting_errors(
-        prog, lambda: draw(args.output, args.dir, args.rect, args.column, args.scale))
+        parser.prog, lambda: draw(args.output, args.dir, args.rect, args.column, args.scale))
     return 0 if ok else 1
 
 

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Summarises scripts/bench's raw results (Google Benchmark JSON, mrt-trace --stats files and
 mrt-preprocess runs) into one JSON document on stdout (and into a file when one is named).
 Sections that scripts/bench did not run are left out."""
