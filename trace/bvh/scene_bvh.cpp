@@ -1,7 +1,7 @@
 #include "trace/bvh/scene_bvh.h"
 
-#include "common/system/error.h"
 #include "common/math/invertibility.h"
+#include "common/system/error.h"
 #include "trace/bvh/bvh_build.h"
 #include "trace/bvh/triangle_intersect.h"
 
@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <ostream>
 #include <string>
 
 namespace mrt {
@@ -317,6 +318,10 @@ Eigen::AlignedBox3f SceneBvh::bounds() const {
         return box;
     }
     return m_impl->groups[m_impl->root].bounds;
+}
+
+std::ostream& operator<<(std::ostream& os, const SceneBvhStats& s) {
+    return print_fields(os, "SceneBvhStats", s);
 }
 
 }  // namespace mrt

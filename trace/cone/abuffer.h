@@ -1,11 +1,11 @@
 #pragma once
 // The per-ray A-buffer of Wand & Straßer §4.4 (after Zwicker et al.'s surface splatting): the
 // cone tracer inserts every point and triangle intersection of one ray cone ("fragments" of
-// surface) with its weight (common/footprint/point_weight.h) and a depth tolerance interval; points whose
-// intervals overlap are one piece of surface and are averaged, the rest stay separate fragments
-// in depth order, and the fragments are alpha-blended front to back with alpha = min(1, weight
-// sum) — "any fragment in the interior of any surface has at least a weight of one. Therefore,
-// we can interpret weight sums of less than one as alpha values to blend edges."
+// surface) with its weight (common/footprint/point_weight.h) and a depth tolerance interval; points
+// whose intervals overlap are one piece of surface and are averaged, the rest stay separate
+// fragments in depth order, and the fragments are alpha-blended front to back with alpha = min(1,
+// weight sum) — "any fragment in the interior of any surface has at least a weight of one.
+// Therefore, we can interpret weight sums of less than one as alpha values to blend edges."
 //
 // Hot path: one buffer per ray, fixed capacity (std::array, no allocation), cleared in O(1).
 // Invariant: fragments [0, size()) have disjoint closed intervals in increasing depth,
@@ -14,6 +14,7 @@
 // into the fragments behind it (the cascade).
 
 #include "common/math/math.h"
+#include "common/system/fields.h"
 
 #include <algorithm>
 #include <array>
@@ -96,24 +97,26 @@ struct ABufferStats {
     std::uint64_t evicted_fragments = 0;
     double dropped_weight = 0.0;  ///< Σ weight of the dropped insertions and evicted fragments.
 
-    ABufferStats& operator+=(const ABufferStats& o) {
-        inserted += o.inserted;
-        ignored += o.ignored;
-        merged += o.merged;
-        cascaded += o.cascaded;
-        forced_merges += o.forced_merges;
-        dropped_insertions += o.dropped_insertions;
-        evicted_fragments += o.evicted_fragments;
-        dropped_weight += o.dropped_weight;
-        return *this;
-    }
+    /// Surface lost to a full buffer: insertions dropped and fragments evicted.
+    std::uint64_t dropped() const { return dropped_insertions + evicted_fragments; }
+
+    /// Named as --stats writes them (inside each traversal kind's record).
+    static constexpr auto fields = std::tuple{
+        Field{"fragments_inserted", &ABufferStats::inserted},
+        Field{"fragments_ignored", &ABufferStats::ignored},
+        Field{"fragments_merged", &ABufferStats::merged},
+        Field{"fragments_cascaded", &ABufferStats::cascaded},
+        Field{"abuffer_forced_merges", &ABufferStats::forced_merges},
+        Field{"abuffer_dropped_insertions", &ABufferStats::dropped_insertions},
+        Field{"abuffer_evicted_fragments", &ABufferStats::evicted_fragments},
+        Field{"abuffer_dropped_weight", &ABufferStats::dropped_weight},
+        Field{"abuffer_dropped", &ABufferStats::dropped},
+    };
+    ABufferStats& operator+=(const ABufferStats& o) { return add_fields(*this, o); }
 };
 
 inline std::ostream& operator<<(std::ostream& os, const ABufferStats& s) {
-    return os << "ABufferStats{inserted " << s.inserted << ", ignored " << s.ignored << ", merged "
-              << s.merged << ", cascaded " << s.cascaded << ", forced merges " << s.forced_merges
-              << ", dropped insertions " << s.dropped_insertions << ", evicted fragments "
-              << s.evicted_fragments << ", dropped weight " << s.dropped_weight << '}';
+    return print_fields(os, "ABufferStats", s);
 }
 
 /// The outcome of front-to-back blending: Σ_i T_i·α_i·c_i and the transmittance left after the

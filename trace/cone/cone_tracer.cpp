@@ -18,6 +18,7 @@
 #include <condition_variable>
 #include <limits>
 #include <mutex>
+#include <ostream>
 #include <thread>
 
 namespace mrt {
@@ -345,18 +346,8 @@ class Watchdog {
 
 }  // namespace
 
-ConeRenderStats& ConeRenderStats::operator+=(const ConeRenderStats& o) {
-    primary += o.primary;
-    secondary += o.secondary;
-    shadow += o.shadow;
-    primary_seconds += o.primary_seconds;
-    secondary_seconds += o.secondary_seconds;
-    shadow_seconds += o.shadow_seconds;
-    straddled_critical_angle += o.straddled_critical_angle;
-    pixels_done += o.pixels_done;
-    pixels += o.pixels;
-    stopped = stopped || o.stopped;
-    return *this;
+std::ostream& operator<<(std::ostream& os, const ConeRenderStats& s) {
+    return print_fields(os, "ConeRenderStats", s);
 }
 
 float cone_pixel_scale(const PixelFilter& filter) {

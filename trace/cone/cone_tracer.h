@@ -34,6 +34,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <iosfwd>
 #include <string>
 
 namespace mrt {
@@ -62,8 +63,23 @@ struct ConeRenderStats {
     std::uint64_t pixels = 0;
     bool stopped = false;  ///< The time budget ran out before every pixel was done.
 
-    ConeRenderStats& operator+=(const ConeRenderStats& o);
+    /// Named as --stats writes them.
+    static constexpr auto fields = std::tuple{
+        Field{"primary", &ConeRenderStats::primary},
+        Field{"secondary", &ConeRenderStats::secondary},
+        Field{"shadow", &ConeRenderStats::shadow},
+        Field{"primary_traversal_thread_seconds", &ConeRenderStats::primary_seconds},
+        Field{"secondary_traversal_thread_seconds", &ConeRenderStats::secondary_seconds},
+        Field{"shadow_traversal_thread_seconds", &ConeRenderStats::shadow_seconds},
+        Field{"straddled_critical_angle", &ConeRenderStats::straddled_critical_angle},
+        Field{"pixels_done", &ConeRenderStats::pixels_done},
+        Field{"pixels", &ConeRenderStats::pixels},
+        Field{"stopped", &ConeRenderStats::stopped},
+    };
+    ConeRenderStats& operator+=(const ConeRenderStats& o) { return add_fields(*this, o); }
 };
+
+std::ostream& operator<<(std::ostream& os, const ConeRenderStats& s);
 
 struct ConeRenderOutput {
     RenderOutput render;

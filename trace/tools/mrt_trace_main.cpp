@@ -6,6 +6,7 @@
 #include "common/scene_io/scene_loader.h"
 #include "common/system/atomic_file.h"
 #include "common/system/error.h"
+#include "common/system/memory_usage.h"
 #include "common/system/progress.h"
 #include "common/system/stopwatch.h"
 #include "preprocess/hierarchy_pack.h"
@@ -282,7 +283,7 @@ int run(const Arguments& args) {
 
     if (!args.stats.empty()) {
         mrt::RenderStats stats;
-        stats.method = mrt::to_string(args.method);
+        stats.method = args.method;
         stats.scene = args.scene.string();
         stats.width = options.width;
         stats.height = options.height;
@@ -293,7 +294,9 @@ int run(const Arguments& args) {
         stats.differentials = mrt::to_string(options.differentials);
         stats.passes = out.passes;
         stats.last_pass_seconds = out.last_pass_seconds;
-        stats.time_budget = options.time_budget;
+        if (options.time_budget > 0.0) {
+            stats.time_budget = options.time_budget;
+        }
         stats.samples = out.samples;
         stats.std_error = out.std_error;
         stats.threads = options.threads > 0 ? options.threads
@@ -306,6 +309,7 @@ int run(const Arguments& args) {
         stats.instanced_triangles = scene.instanced_triangle_count();
         stats.cone = cone_stats;
         stats.stopped = cone_stats && cone_stats->stopped;
+        stats.peak_rss_bytes = mrt::peak_rss_bytes();
         mrt::write_render_stats(args.stats, stats);
     }
     if (!args.quiet && isatty(STDERR_FILENO)) {
