@@ -183,8 +183,18 @@ const std::vector<DefaultRun>& default_runs() {
         {name(Cone), "max-depth=0", 0.0},
         {name(ConeClassic), "max-depth=0", 16.0, name(Cone) + ":max-depth=0"},
         {name(Distributed), "", 1.0, name(Cone)},
-        {name(Distributed), "", 16.0, name(Cone), true, ErrorMeasure::Rmse},
-        {name(Distributed), "", 16.0, name(Cone), true, ErrorMeasure::DisplayRmse},
+        {.method = name(Distributed),
+         .options = "",
+         .budget_factor = 16.0,
+         .budget_of = name(Cone),
+         .to_equal_error = true,
+         .measure = ErrorMeasure::Rmse},
+        {.method = name(Distributed),
+         .options = "",
+         .budget_factor = 16.0,
+         .budget_of = name(Cone),
+         .to_equal_error = true,
+         .measure = ErrorMeasure::DisplayRmse},
     };
     return runs;
 }

@@ -1,12 +1,13 @@
 #include "trace/cone/cone_tracer.h"
 
-#include "trace/render/camera_rays.h"
 #include "common/footprint/footprint.h"
 #include "common/footprint/point_weight.h"
 #include "trace/cone/abuffer.h"
-#include "trace/render/area_light.h"
 #include "trace/cone/cone_surface.h"
+#include "trace/render/area_light.h"
+#include "trace/render/camera_rays.h"
 #include "trace/render/film.h"
+#include "trace/render/method.h"
 #include "trace/render/pixel_filter.h"
 #include "trace/render/shading.h"
 
@@ -359,7 +360,7 @@ float cone_pixel_scale(const PixelFilter& filter) {
 }
 
 ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& options,
-                             const ConeOptions& cone_options, const std::string& label) {
+                             const ConeOptions& cone_options) {
     const Scene& scene = geometry.scene();
     const CameraRays camera(scene.camera, options.width, options.height);
     const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
@@ -408,8 +409,10 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
     {
         const Watchdog watchdog(cone_options.time_budget, stop);
         out.render.rays = film.add_pass(
-            options.threads, label, options.quiet,
-            [&](int x, int y, FilmTile& tile, RayCounters& counters) {
+            options.threads,
+            std::string(
+                to_string(cone_options.traversal.points ? Method::Cone : Method::ConeClassic)),
+            options.quiet, [&](int x, int y, FilmTile& tile, RayCounters& counters) {
                 ConeWork& local = work.local();
                 ++local.stats.pixels;
                 if (stop.load(std::memory_order_relaxed)) {

@@ -1,8 +1,8 @@
 #pragma once
 // The multi-resolution cone tracer (Wand & Straßer §4–6; methods `cone` and `cone-classic`):
 // one anisotropic Gaussian ray cone per pixel through the point hierarchy of a .mrh file
-// (trace/cone/cone_traversal.h), composited through the per-ray A-buffer (trace/cone/abuffer.h), every
-// fragment shaded with the same Phong model as the baselines (trace/render/shading.h):
+// (trace/cone/cone_traversal.h), composited through the per-ray A-buffer (trace/cone/abuffer.h),
+// every fragment shaded with the same Phong model as the baselines (trace/render/shading.h):
 //
 // - Primary cones: zero start, the pixel's increment (the pinhole's ray differential), scaled
 //   so that the cone's Gaussian has the second moment of the reconstruction filter the
@@ -14,8 +14,8 @@
 //   soft shadows as the transmittance of one cone, no samples.
 // - Reflected and refracted cones from the footprint projected onto the tangent plane and the
 //   surface's shape operator (the surfel's fitted normal gradient, or the normal-interpolated
-//   triangle's), with Igehy's exact derivatives (common/footprint/footprint.h). Roughness widens the
-//   cone radially (blurry reflections). Where the footprint straddles the critical angle the
+//   triangle's), with Igehy's exact derivatives (common/footprint/footprint.h). Roughness widens
+//   the cone radially (blurry reflections). Where the footprint straddles the critical angle the
 //   transmitted share is split between a refracted and a totally reflected cone by the
 //   fraction of the footprint's Gaussian that refracts (the paper decides per cone by its
 //   centre; it names the blend as future work).
@@ -92,8 +92,9 @@ float cone_pixel_scale(const PixelFilter& filter);
 
 /// Renders the scene's camera with the cone tracer over `geometry` (the hierarchy file and the
 /// scene it stands for). options.width/height/threads/max_depth/quiet are read; options.filter
-/// sets the cone's width (cone_pixel_scale); one cone per pixel, at its centre.
+/// sets the cone's width (cone_pixel_scale); one cone per pixel, at its centre. The progress bar
+/// is labelled with the method cone_options.traversal.points makes it (cone or cone-classic).
 ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& options,
-                             const ConeOptions& cone_options, const std::string& label = "cone");
+                             const ConeOptions& cone_options);
 
 }  // namespace mrt

@@ -262,8 +262,7 @@ int run(const Arguments& args) {
                 ? args.time_budget
                 : (args.method == mrt::Method::ConeClassic ? kClassicDefaultBudget : 0.0);
         options.time_budget = cone.time_budget;
-        mrt::ConeRenderOutput result =
-            mrt::render_cone(*geometry, options, cone, std::string(mrt::to_string(args.method)));
+        mrt::ConeRenderOutput result = mrt::render_cone(*geometry, options, cone);
         out = std::move(result.render);
         cone_stats = result.stats;
     } else if (args.method == mrt::Method::Distributed) {
