@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <ostream>
 #include <string>
 
 namespace mrt {
@@ -323,6 +324,10 @@ Eigen::AlignedBox3f SceneBvh::bounds() const {
         return box;
     }
     return m_impl->groups[m_impl->root].bounds;
+}
+
+std::ostream& operator<<(std::ostream& os, const SceneBvhStats& s) {
+    return print_fields(os, "SceneBvhStats", s);
 }
 
 }  // namespace mrt

@@ -7,6 +7,7 @@
 
 #include "common/math/ray.h"
 #include "common/scene/scene.h"
+#include "common/system/fields.h"
 #include "trace/bvh/triangle_bvh.h"
 
 #include <cstdint>
@@ -31,13 +32,24 @@ struct SceneHit {
     bool valid() const { return t < kInfinity; }
 };
 
+/// What building the BVHs made.
 struct SceneBvhStats {
-    std::uint64_t mesh_nodes = 0;
-    std::uint64_t group_nodes = 0;
-    std::uint64_t unique_triangles = 0;
-    std::uint64_t bytes = 0;
+    std::uint64_t mesh_nodes = 0;        ///< Nodes of the meshes' BVHs.
+    std::uint64_t group_nodes = 0;       ///< Nodes of the groups' BVHs over instances.
+    std::uint64_t unique_triangles = 0;  ///< Triangles of the meshes, each counted once.
+    std::uint64_t bytes = 0;             ///< Memory of all the BVHs.
     double build_seconds = 0.0;
+
+    static constexpr auto fields = std::tuple{
+        Field{"mesh_nodes", &SceneBvhStats::mesh_nodes},
+        Field{"group_nodes", &SceneBvhStats::group_nodes},
+        Field{"unique_triangles", &SceneBvhStats::unique_triangles},
+        Field{"bytes", &SceneBvhStats::bytes},
+        Field{"build_seconds", &SceneBvhStats::build_seconds},
+    };
 };
+
+std::ostream& operator<<(std::ostream& os, const SceneBvhStats& s);
 
 class SceneBvh {
   public:

@@ -9,6 +9,7 @@
 #include "trace/compare/equal_error.h"
 #include "trace/compare/headline_ratios.h"
 #include "trace/compare/method_spec.h"
+#include "trace/render/method.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -32,7 +33,7 @@ constexpr const char* kReferenceExr = "reference.exr";
 constexpr const char* kReferencePng = "reference.png";
 constexpr const char* kReferenceRecord = "reference.json";
 constexpr const char* kReferenceStats = "reference-stats.json";
-constexpr const char* kReferenceMethod = "distributed";
+constexpr std::string_view kReferenceMethod = to_string(Method::Distributed);
 // The reference point-samples textures (bilinear at full resolution): with enough samples per
 // pixel that converges to the exact pixel integral, where a filter would add its own blur and
 // favour the runs that use the same one.
@@ -180,7 +181,7 @@ fs::path checked_scene(const fs::path& scene) {
     return fs::canonical(scene);
 }
 
-/// The runs to make: the given specs, or the default runs of every method mrt-trace offers.
+/// The runs to make: the given specs, or the default runs of every method.
 std::vector<PlannedRun> plan_runs(const ComparisonOptions& options) {
     std::vector<PlannedRun> plan;
     if (!options.method_specs.empty()) {
@@ -190,20 +191,7 @@ std::vector<PlannedRun> plan_runs(const ComparisonOptions& options) {
         }
         return plan;
     }
-    const ProcessResult help = run_process(options.trace_exe, {"--help"});
-    const std::vector<std::string> methods = methods_listed_in_help(help.out);
-    if (!help.succeeded() || methods.empty()) {
-        throw Error(options.trace_exe, "",
-                    "cannot tell from --help which methods mrt-trace offers; name them with "
-                    "--method");
-    }
-    const auto offered = [&](const std::string& method) {
-        return std::find(methods.begin(), methods.end(), method) != methods.end();
-    };
     for (const DefaultRun& run : default_runs()) {
-        if (!offered(run.method)) {
-            continue;
-        }
         if (run.budget_factor > 0.0) {
             // Its budget needs the time of a fixed run planned before it.
             const bool base_planned =
@@ -427,7 +415,7 @@ class ComparisonRun {
         fs::remove(dir / kReferenceRecord, ec);
         std::vector<std::string> args =
             common_arguments(m_options, scene.string(), dir / kReferenceExr, dir / kReferenceStats);
-        args.insert(args.end(), {"--method", kReferenceMethod, "--reference", "--spp",
+        args.insert(args.end(), {"--method", std::string(kReferenceMethod), "--reference", "--spp",
                                  std::to_string(m_options.reference_spp), "--texture-filter",
                                  kReferenceTextureFilter});
         const std::string what =

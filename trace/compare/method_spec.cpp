@@ -1,6 +1,7 @@
 #include "trace/compare/method_spec.h"
 
 #include "common/system/error.h"
+#include "trace/render/method.h"
 
 #include <fmt/format.h>
 
@@ -8,7 +9,6 @@
 #include <charconv>
 #include <cmath>
 #include <ostream>
-#include <sstream>
 
 namespace mrt {
 
@@ -43,6 +43,30 @@ std::vector<std::string> split(const std::string& s, char separator) {
     }
 }
 
+/// The spec, once its name is a method and it gives no option of other methods only, which
+/// mrt-trace would refuse after the comparison had spent time on the runs before it.
+MethodSpec checked_against_method(MethodSpec spec) {
+    const std::optional<Method> method = find_method(spec.method);
+    if (!method) {
+        throw spec_error(spec.text, fmt::format("\"{}\" is not a method of mrt-trace ({})",
+                                                spec.method, method_choices()));
+    }
+    for (const MethodOption& option : spec.options) {
+        if (!takes_option(*method, option.key)) {
+            throw spec_error(
+                spec.text,
+                fmt::format("the {} method does not take option \"{}\" ({})", spec.method,
+                            option.key, refusal(*find_method_only_option(option.key))));
+        }
+    }
+    return spec;
+}
+
+/// The name of a method, as a spec writes it.
+std::string name(Method method) {
+    return std::string(to_string(method));
+}
+
 }  // namespace
 
 const std::vector<std::string>& refused_option_keys() {
@@ -64,7 +88,7 @@ MethodSpec parse_method_spec(const std::string& text) {
         throw spec_error(text, fmt::format("\"{}\" is not a method name", spec.method));
     }
     if (colon == std::string::npos) {
-        return spec;
+        return checked_against_method(std::move(spec));
     }
     const std::string list = text.substr(colon + 1);
     if (list.empty()) {
@@ -107,7 +131,7 @@ MethodSpec parse_method_spec(const std::string& text) {
         }
         spec.options.push_back(std::move(option));
     }
-    return spec;
+    return checked_against_method(std::move(spec));
 }
 
 std::vector<std::string> trace_arguments(const MethodSpec& spec) {
@@ -133,35 +157,44 @@ std::string spec_slug(const std::string& spec_text) {
     return slug;
 }
 
-// The one table of methods. A tracer mrt-trace gains is added here; it joins the default
-// comparison as soon as mrt-trace's --help lists it under --method (methods_listed_in_help),
-// so the table may name tracers that are not built yet.
+// The runs of every method (trace/render/method.h); a tracer mrt-trace gains gets its runs here.
 const std::vector<DefaultRun>& default_runs() {
+    using enum Method;
     static const std::vector<DefaultRun> runs = {
-        {"whitted", "", 0.0},
-        {"whitted", "spp=4", 0.0},
-        {"distributed", "spp-max=4", 0.0},
-        {"distributed", "spp-max=16", 0.0},
-        {"distributed", "spp-max=64", 0.0},
+        {name(Whitted), "", 0.0},
+        {name(Whitted), "spp=4", 0.0},
+        {name(Distributed), "spp-max=4", 0.0},
+        {name(Distributed), "spp-max=16", 0.0},
+        {name(Distributed), "spp-max=64", 0.0},
         // Time budgets of 4×, 16× and 64× what whitted took: the distributed curve from a cheap
         // anti-aliasing pass to a nearly converged image, for equal-time readings.
-        {"distributed", "", 4.0},
-        {"distributed", "", 16.0},
-        {"distributed", "", 64.0},
-        {"cone", "", 0.0},
+        {name(Distributed), "", 4.0},
+        {name(Distributed), "", 16.0},
+        {name(Distributed), "", 64.0},
+        {name(Cone), "", 0.0},
         // Classic cone tracing can run for hours on a detailed scene: it gets 64× whitted's
         // time and stops there cleanly, saying so (its stats' "stopped").
-        {"cone-classic", "", 64.0},
+        {name(ConeClassic), "", 64.0},
         // The headline ratios (headline_ratios.h), each measured in this one run: primary rays
         // alone, where classic cone tracing is compared with ours (Wand & Straßer §6 found it
         // 2.8× slower), classic given 16× our time before it stops; distributed at our time;
         // and the distributed budgets that reach our RMSE and our display-referred RMSE,
         // searched for and measured, up to 16× our time.
-        {"cone", "max-depth=0", 0.0},
-        {"cone-classic", "max-depth=0", 16.0, "cone:max-depth=0"},
-        {"distributed", "", 1.0, "cone"},
-        {"distributed", "", 16.0, "cone", true, ErrorMeasure::Rmse},
-        {"distributed", "", 16.0, "cone", true, ErrorMeasure::DisplayRmse},
+        {name(Cone), "max-depth=0", 0.0},
+        {name(ConeClassic), "max-depth=0", 16.0, name(Cone) + ":max-depth=0"},
+        {name(Distributed), "", 1.0, name(Cone)},
+        {.method = name(Distributed),
+         .options = "",
+         .budget_factor = 16.0,
+         .budget_of = name(Cone),
+         .to_equal_error = true,
+         .measure = ErrorMeasure::Rmse},
+        {.method = name(Distributed),
+         .options = "",
+         .budget_factor = 16.0,
+         .budget_of = name(Cone),
+         .to_equal_error = true,
+         .measure = ErrorMeasure::DisplayRmse},
     };
     return runs;
 }
@@ -171,7 +204,7 @@ const std::string& DefaultRun::budget_base() const {
 }
 
 const std::string& baseline_spec() {
-    static const std::string spec = "whitted";
+    static const std::string spec = name(Method::Whitted);
     return spec;
 }
 
@@ -230,35 +263,6 @@ std::optional<double> time_budget_of(const std::string& spec_text, const Default
         return std::nullopt;
     }
     return seconds;
-}
-
-std::vector<std::string> methods_listed_in_help(const std::string& help_text) {
-    std::istringstream lines(help_text);
-    std::string line;
-    while (std::getline(lines, line)) {
-        if (line.find("--method") == std::string::npos) {
-            continue;
-        }
-        std::vector<std::string> words;
-        std::string word;
-        for (const char c : line + ' ') {
-            if (is_name_char(c)) {
-                word += c;
-            } else if (!word.empty()) {
-                words.push_back(word);
-                word.clear();
-            }
-        }
-        std::vector<std::string> methods;
-        for (const DefaultRun& run : default_runs()) {
-            const bool listed = std::find(words.begin(), words.end(), run.method) != words.end();
-            if (listed && std::find(methods.begin(), methods.end(), run.method) == methods.end()) {
-                methods.push_back(run.method);
-            }
-        }
-        return methods;
-    }
-    return {};
 }
 
 std::ostream& operator<<(std::ostream& os, const MethodOption& o) {

@@ -8,8 +8,8 @@
 //                                  → --method distributed --spp-max 16 --spp-initial 4
 //   distributed:reference          → refused (mrt-compare controls --reference)
 //
-// The table of methods mrt-compare knows, and the runs it makes when no spec is given, is
-// default_runs() in method_spec.cpp: the one place to add a tracer.
+// The methods and the options each takes are mrt-trace's own table (trace/render/method.h); the
+// runs mrt-compare makes when no spec is given are default_runs() in method_spec.cpp.
 
 #include "trace/compare/equal_error.h"
 
@@ -37,8 +37,9 @@ struct MethodSpec {
 
 /// Parses "NAME[:key[=value],...]". Throws mrt::Error quoting the spec for an empty name, an
 /// empty option list after ':', an empty key or value, a key written with dashes, a repeated
-/// key, characters outside [A-Za-z0-9_-] in a name or key, and keys mrt-compare sets itself
-/// (refused_option_keys()). Keys unknown to mrt-trace pass through; mrt-trace refuses them.
+/// key, characters outside [A-Za-z0-9_-] in a name or key, keys mrt-compare sets itself
+/// (refused_option_keys()), a name that is not a method, and an option that only other methods
+/// take (method_only_options()). Other keys unknown to mrt-trace pass through; it refuses them.
 MethodSpec parse_method_spec(const std::string& text);
 
 /// The option keys mrt-compare sets for every run itself, refused inside a spec: output, stats,
@@ -77,7 +78,7 @@ struct DefaultRun {
 /// The most renders one equal-error search makes.
 inline constexpr int kMaxEqualErrorRenders = 4;
 
-/// Every run of the default comparison, in order, for every method mrt-compare knows.
+/// Every run of the default comparison, in order, for every method.
 const std::vector<DefaultRun>& default_runs();
 
 /// The spec whose measured render_seconds sets the time-budget runs' budgets ("whitted").
@@ -107,10 +108,6 @@ inline constexpr double kMinimumBudgetSeconds = 0.05;
 
 /// The budget in seconds, formatted as budget_run_spec writes it ("0.246", "12.3", "0.05").
 std::string format_budget_seconds(double seconds);
-
-/// Names of the methods that mrt-trace's --help text offers: the words on its "--method" line
-/// that are names of default_runs() methods. Empty when there is no such line.
-std::vector<std::string> methods_listed_in_help(const std::string& help_text);
 
 std::ostream& operator<<(std::ostream& os, const MethodOption& o);
 std::ostream& operator<<(std::ostream& os, const MethodSpec& s);

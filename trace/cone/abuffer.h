@@ -15,6 +15,7 @@
 
 #include "common/math/math.h"
 #include "common/system/check.h"
+#include "common/system/fields.h"
 
 #include <algorithm>
 #include <array>
@@ -97,24 +98,26 @@ struct ABufferStats {
     std::uint64_t evicted_fragments = 0;
     double dropped_weight = 0.0;  ///< Σ weight of the dropped insertions and evicted fragments.
 
-    ABufferStats& operator+=(const ABufferStats& o) {
-        inserted += o.inserted;
-        ignored += o.ignored;
-        merged += o.merged;
-        cascaded += o.cascaded;
-        forced_merges += o.forced_merges;
-        dropped_insertions += o.dropped_insertions;
-        evicted_fragments += o.evicted_fragments;
-        dropped_weight += o.dropped_weight;
-        return *this;
-    }
+    /// Surface lost to a full buffer: insertions dropped and fragments evicted.
+    std::uint64_t dropped() const { return dropped_insertions + evicted_fragments; }
+
+    /// Named as --stats writes them (inside each traversal kind's record).
+    static constexpr auto fields = std::tuple{
+        Field{"fragments_inserted", &ABufferStats::inserted},
+        Field{"fragments_ignored", &ABufferStats::ignored},
+        Field{"fragments_merged", &ABufferStats::merged},
+        Field{"fragments_cascaded", &ABufferStats::cascaded},
+        Field{"abuffer_forced_merges", &ABufferStats::forced_merges},
+        Field{"abuffer_dropped_insertions", &ABufferStats::dropped_insertions},
+        Field{"abuffer_evicted_fragments", &ABufferStats::evicted_fragments},
+        Field{"abuffer_dropped_weight", &ABufferStats::dropped_weight},
+        Field{"abuffer_dropped", &ABufferStats::dropped},
+    };
+    ABufferStats& operator+=(const ABufferStats& o) { return add_fields(*this, o); }
 };
 
 inline std::ostream& operator<<(std::ostream& os, const ABufferStats& s) {
-    return os << "ABufferStats{inserted " << s.inserted << ", ignored " << s.ignored << ", merged "
-              << s.merged << ", cascaded " << s.cascaded << ", forced merges " << s.forced_merges
-              << ", dropped insertions " << s.dropped_insertions << ", evicted fragments "
-              << s.evicted_fragments << ", dropped weight " << s.dropped_weight << '}';
+    return print_fields(os, "ABufferStats", s);
 }
 
 /// The outcome of front-to-back blending: Σ_i T_i·α_i·c_i and the transmittance left after the

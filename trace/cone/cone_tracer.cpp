@@ -8,6 +8,7 @@
 #include "trace/render/area_light.h"
 #include "trace/render/camera_rays.h"
 #include "trace/render/film.h"
+#include "trace/render/method.h"
 #include "trace/render/pixel_filter.h"
 #include "trace/render/scattering.h"
 #include "trace/render/shading.h"
@@ -20,6 +21,7 @@
 #include <condition_variable>
 #include <limits>
 #include <mutex>
+#include <ostream>
 #include <thread>
 
 namespace mrt {
@@ -422,18 +424,8 @@ class Watchdog {
 
 }  // namespace
 
-ConeRenderStats& ConeRenderStats::operator+=(const ConeRenderStats& o) {
-    primary += o.primary;
-    secondary += o.secondary;
-    shadow += o.shadow;
-    primary_seconds += o.primary_seconds;
-    secondary_seconds += o.secondary_seconds;
-    shadow_seconds += o.shadow_seconds;
-    straddled_critical_angle += o.straddled_critical_angle;
-    pixels_done += o.pixels_done;
-    pixels += o.pixels;
-    stopped = stopped || o.stopped;
-    return *this;
+std::ostream& operator<<(std::ostream& os, const ConeRenderStats& s) {
+    return print_fields(os, "ConeRenderStats", s);
 }
 
 float cone_pixel_scale(const PixelFilter& filter) {
@@ -445,7 +437,7 @@ float cone_pixel_scale(const PixelFilter& filter) {
 }
 
 ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& options,
-                             const ConeOptions& cone_options, const std::string& label) {
+                             const ConeOptions& cone_options) {
     const Scene& scene = geometry.scene();
     const CameraRays camera(scene.camera, options.width, options.height);
     const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
@@ -496,8 +488,10 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
     {
         const Watchdog watchdog(cone_options.time_budget, stop);
         out.render.rays = film.add_pass(
-            options.threads, label, options.quiet,
-            [&](int x, int y, FilmTile& tile, RayCounters& counters) {
+            options.threads,
+            std::string(
+                to_string(cone_options.traversal.points ? Method::Cone : Method::ConeClassic)),
+            options.quiet, [&](int x, int y, FilmTile& tile, RayCounters& counters) {
                 ConeWork& local = work.local();
                 ++local.stats.pixels;
                 if (stop.load(std::memory_order_relaxed)) {

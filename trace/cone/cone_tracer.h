@@ -1,8 +1,8 @@
 #pragma once
 // The multi-resolution cone tracer (Wand & Straßer §4–6; methods `cone` and `cone-classic`):
 // one anisotropic Gaussian ray cone per pixel through the point hierarchy of a .mrh file
-// (trace/cone/cone_traversal.h), composited through the per-ray A-buffer (trace/cone/abuffer.h), every
-// fragment shaded with the same Phong model as the baselines (trace/render/shading.h):
+// (trace/cone/cone_traversal.h), composited through the per-ray A-buffer (trace/cone/abuffer.h),
+// every fragment shaded with the same Phong model as the baselines (trace/render/shading.h):
 //
 // - Primary cones: zero start, the pixel's increment (the pinhole's ray differential), scaled
 //   so that the cone's Gaussian has the second moment of the reconstruction filter the
@@ -14,8 +14,8 @@
 //   soft shadows as the transmittance of one cone, no samples.
 // - Reflected and refracted cones from the footprint projected onto the tangent plane and the
 //   surface's shape operator (the surfel's fitted normal gradient, or the normal-interpolated
-//   triangle's), with Igehy's exact derivatives (common/footprint/footprint.h). Roughness widens the
-//   cone radially (blurry reflections). Where the footprint straddles the critical angle the
+//   triangle's), with Igehy's exact derivatives (common/footprint/footprint.h). Roughness widens
+//   the cone radially (blurry reflections). Where the footprint straddles the critical angle the
 //   transmitted share is split between a refracted and a totally reflected cone by the
 //   fraction of the footprint's Gaussian that refracts (the paper decides per cone by its
 //   centre; it names the blend as future work).
@@ -34,6 +34,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <iosfwd>
 #include <string>
 
 namespace mrt {
@@ -62,8 +63,23 @@ struct ConeRenderStats {
     std::uint64_t pixels = 0;
     bool stopped = false;  ///< The time budget ran out before every pixel was done.
 
-    ConeRenderStats& operator+=(const ConeRenderStats& o);
+    /// Named as --stats writes them.
+    static constexpr auto fields = std::tuple{
+        Field{"primary", &ConeRenderStats::primary},
+        Field{"secondary", &ConeRenderStats::secondary},
+        Field{"shadow", &ConeRenderStats::shadow},
+        Field{"primary_traversal_thread_seconds", &ConeRenderStats::primary_seconds},
+        Field{"secondary_traversal_thread_seconds", &ConeRenderStats::secondary_seconds},
+        Field{"shadow_traversal_thread_seconds", &ConeRenderStats::shadow_seconds},
+        Field{"straddled_critical_angle", &ConeRenderStats::straddled_critical_angle},
+        Field{"pixels_done", &ConeRenderStats::pixels_done},
+        Field{"pixels", &ConeRenderStats::pixels},
+        Field{"stopped", &ConeRenderStats::stopped},
+    };
+    ConeRenderStats& operator+=(const ConeRenderStats& o) { return add_fields(*this, o); }
 };
+
+std::ostream& operator<<(std::ostream& os, const ConeRenderStats& s);
 
 struct ConeRenderOutput {
     RenderOutput render;
@@ -76,8 +92,9 @@ float cone_pixel_scale(const PixelFilter& filter);
 
 /// Renders the scene's camera with the cone tracer over `geometry` (the hierarchy file and the
 /// scene it stands for). options.width/height/threads/max_depth/quiet are read; options.filter
-/// sets the cone's width (cone_pixel_scale); one cone per pixel, at its centre.
+/// sets the cone's width (cone_pixel_scale); one cone per pixel, at its centre. The progress bar
+/// is labelled with the method cone_options.traversal.points makes it (cone or cone-classic).
 ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& options,
-                             const ConeOptions& cone_options, const std::string& label = "cone");
+                             const ConeOptions& cone_options);
 
 }  // namespace mrt

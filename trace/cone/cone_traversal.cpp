@@ -703,30 +703,12 @@ class Walk {
 
 }  // namespace
 
-ConeTraversalStats& ConeTraversalStats::operator+=(const ConeTraversalStats& o) {
-    rays += o.rays;
-    nodes_visited += o.nodes_visited;
-    spheres_tested += o.spheres_tested;
-    points_tested += o.points_tested;
-    points_hit += o.points_hit;
-    triangles_tested += o.triangles_tested;
-    triangles_hit += o.triangles_hit;
-    instances_entered += o.instances_entered;
-    culled_by_opacity += o.culled_by_opacity;
-    back_faces_culled += o.back_faces_culled;
-    point_nodes += o.point_nodes;
-    level_sum += o.level_sum;
-    level_weight += o.level_weight;
-    abuffer += o.abuffer;
-    return *this;
+std::optional<double> ConeTraversalStats::mean_point_level() const {
+    return level_weight > 0.0 ? std::optional<double>(level_sum / level_weight) : std::nullopt;
 }
 
 std::ostream& operator<<(std::ostream& os, const ConeTraversalStats& s) {
-    return os << "ConeTraversalStats{rays " << s.rays << ", nodes " << s.nodes_visited
-              << ", spheres " << s.spheres_tested << ", points " << s.points_tested << " ("
-              << s.points_hit << " hit), triangles " << s.triangles_tested << " ("
-              << s.triangles_hit << " hit), instances " << s.instances_entered << ", " << s.abuffer
-              << '}';
+    return print_fields(os, "ConeTraversalStats", s);
 }
 
 namespace {

@@ -43,6 +43,7 @@
 #include <atomic>
 #include <cstdint>
 #include <iosfwd>
+#include <optional>
 #include <vector>
 
 namespace mrt {
@@ -91,7 +92,28 @@ struct ConeTraversalStats {
     double level_weight = 0.0;
     ABufferStats abuffer;  ///< Fragments merged, overflows.
 
-    ConeTraversalStats& operator+=(const ConeTraversalStats& o);
+    /// The mean level the cones chose (level_sum / level_weight); none when no points were used.
+    std::optional<double> mean_point_level() const;
+
+    /// Named as --stats writes them; the A-buffer's fields are written among these.
+    static constexpr auto fields = std::tuple{
+        Field{"cones", &ConeTraversalStats::rays},
+        Field{"nodes_visited", &ConeTraversalStats::nodes_visited},
+        Field{"spheres_tested", &ConeTraversalStats::spheres_tested},
+        Field{"points_tested", &ConeTraversalStats::points_tested},
+        Field{"points_hit", &ConeTraversalStats::points_hit},
+        Field{"triangles_tested", &ConeTraversalStats::triangles_tested},
+        Field{"triangles_hit", &ConeTraversalStats::triangles_hit},
+        Field{"instances_entered", &ConeTraversalStats::instances_entered},
+        Field{"nodes_culled_by_opacity", &ConeTraversalStats::culled_by_opacity},
+        Field{"back_faces_culled", &ConeTraversalStats::back_faces_culled},
+        Field{"point_nodes", &ConeTraversalStats::point_nodes},
+        Field{"level_sum", &ConeTraversalStats::level_sum},
+        Field{"level_weight", &ConeTraversalStats::level_weight},
+        Field{"mean_point_level", &ConeTraversalStats::mean_point_level},
+        Embedded{&ConeTraversalStats::abuffer},
+    };
+    ConeTraversalStats& operator+=(const ConeTraversalStats& o) { return add_fields(*this, o); }
 };
 
 std::ostream& operator<<(std::ostream& os, const ConeTraversalStats& s);

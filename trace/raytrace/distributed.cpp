@@ -1,12 +1,13 @@
 #include "trace/raytrace/distributed.h"
 
-#include "trace/render/camera_rays.h"
 #include "common/math/random.h"
 #include "common/math/sampling.h"
 #include "common/system/stopwatch.h"
 #include "common/texture/texture.h"
-#include "trace/render/film.h"
 #include "trace/raytrace/ray_tree.h"
+#include "trace/render/camera_rays.h"
+#include "trace/render/film.h"
+#include "trace/render/method.h"
 
 #include <algorithm>
 #include <atomic>
@@ -283,7 +284,7 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
 
     out.spp = options.fixed_spp ? std::max(1, options.spp) : options.spp_max;
     if (options.fixed_spp) {
-        timed_pass(uniform, std::max(1, options.spp), "distributed");
+        timed_pass(uniform, std::max(1, options.spp), std::string(to_string(Method::Distributed)));
     } else {
         const int initial = std::max(1, options.spp_initial);
         const std::uint64_t first =

@@ -1,8 +1,9 @@
 #include "trace/raytrace/whitted.h"
 
-#include "trace/render/camera_rays.h"
 #include "common/math/sampling.h"
+#include "trace/render/camera_rays.h"
 #include "trace/render/film.h"
+#include "trace/render/method.h"
 
 #include <chrono>
 
@@ -24,7 +25,7 @@ RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const Textu
     const auto start = std::chrono::steady_clock::now();
     RenderOutput out;
     out.rays = film.add_pass(
-        options.threads, "whitted", options.quiet,
+        options.threads, std::string(to_string(Method::Whitted)), options.quiet,
         [&](int x, int y, FilmTile& tile, RayCounters& counters) {
             CentreSampling centre;
             for (int s = 0; s < spp; ++s) {

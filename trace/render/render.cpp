@@ -2,7 +2,17 @@
 
 #include "common/system/error.h"
 
+#include <ostream>
+
 namespace mrt {
+
+std::ostream& operator<<(std::ostream& os, const RayCounters& c) {
+    return print_fields(os, "RayCounters", c);
+}
+
+std::ostream& operator<<(std::ostream& os, const PixelWindow& w) {
+    return os << "PixelWindow{[" << w.x0 << ", " << w.x1 << ") × [" << w.y0 << ", " << w.y1 << ")}";
+}
 
 Differentials parse_differentials(const std::string& text) {
     if (text == "when-read") {

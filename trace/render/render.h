@@ -4,6 +4,7 @@
 // bit-identical for any thread count and any tile schedule.
 
 #include "common/image/image.h"
+#include "common/system/fields.h"
 #include "common/texture/texture.h"
 #include "trace/render/pixel_filter.h"
 
@@ -22,12 +23,15 @@ struct RayCounters {
     std::uint64_t shadow = 0;     ///< Visibility rays towards lights.
 
     std::uint64_t total() const { return primary + secondary + shadow; }
-    RayCounters& operator+=(const RayCounters& o) {
-        primary += o.primary;
-        secondary += o.secondary;
-        shadow += o.shadow;
-        return *this;
-    }
+
+    /// Named as --stats writes them.
+    static constexpr auto fields = std::tuple{
+        Field{"primary_rays", &RayCounters::primary},
+        Field{"secondary_rays", &RayCounters::secondary},
+        Field{"shadow_rays", &RayCounters::shadow},
+        Field{"rays", &RayCounters::total},
+    };
+    RayCounters& operator+=(const RayCounters& o) { return add_fields(*this, o); }
 };
 
 /// Which rays carry ray differentials.
@@ -98,6 +102,7 @@ struct RenderOutput {
 };
 
 std::ostream& operator<<(std::ostream& os, const RayCounters& c);
+std::ostream& operator<<(std::ostream& os, const PixelWindow& w);
 
 /// The window an image is rendered for: the crop, or the whole frame.
 inline PixelWindow output_window(const RenderOptions& options) {

@@ -1,21 +1,23 @@
 // mrt-trace: renders a scene with one of the project's tracers.
 
-#include "common/system/atomic_file.h"
-#include "common/system/error.h"
+#include "common/cli/tool_main.h"
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/image/image.h"
-#include "common/system/progress.h"
 #include "common/scene_io/scene_loader.h"
+#include "common/system/atomic_file.h"
+#include "common/system/error.h"
+#include "common/system/memory_usage.h"
+#include "common/system/progress.h"
 #include "common/system/stopwatch.h"
-#include "common/cli/tool_main.h"
 #include "preprocess/hierarchy_pack.h"
 #include "preprocess/scene_hierarchy.h"
+#include "trace/bvh/scene_bvh.h"
 #include "trace/cone/cone_tracer.h"
 #include "trace/raytrace/distributed.h"
+#include "trace/raytrace/whitted.h"
+#include "trace/render/method.h"
 #include "trace/render/pixel_filter.h"
 #include "trace/tools/render_stats.h"
-#include "trace/bvh/scene_bvh.h"
-#include "trace/raytrace/whitted.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -40,7 +42,7 @@ using mrt::seconds_since;
 struct Arguments {
     std::filesystem::path scene;
     std::filesystem::path output;
-    std::string method = "whitted";
+    mrt::Method method = mrt::Method::Whitted;
     std::optional<int> spp;
     int spp_initial = 2;
     std::optional<int> spp_max;
@@ -104,10 +106,6 @@ mrt::PixelWindow crop_window(const std::array<int, 4>& v, int width, int height)
     return window;
 }
 
-bool is_cone(const std::string& method) {
-    return method == "cone" || method == "cone-classic";
-}
-
 /// Image size: the camera's, or the requested one; one given side keeps the camera's aspect.
 std::pair<int, int> image_size(const mrt::Camera& camera, const Arguments& args) {
     const double aspect = static_cast<double>(camera.width) / static_cast<double>(camera.height);
@@ -136,28 +134,13 @@ void check_method_options(const CLI::App& app, const Arguments& args) {
     if (!args.crop.empty()) {
         parse_crop(args.crop);
     }
-    if (!is_cone(args.method)) {
-        for (const char* option : {"--max-anisotropy", "--no-level-blend", "--node-frames",
-                                   "--keep-back-faces", "--triangle-weight"}) {
-            if (app.count(option) > 0) {
-                throw CLI::ValidationError(option, "only the cone methods take it");
-            }
-        }
-    } else {
-        if (app.count("--spp") > 0) {
-            throw CLI::ValidationError("--spp", "the cone methods trace one cone per pixel");
+    for (const mrt::MethodOnlyOption& option : mrt::method_only_options()) {
+        const std::string name = "--" + std::string(option.key);
+        if (!option.methods.contains(args.method) && app.count(name) > 0) {
+            throw CLI::ValidationError(name, mrt::refusal(option));
         }
     }
-    if (args.method != "distributed") {
-        for (const char* option : {"--spp-initial", "--spp-max", "--target-error", "--reference"}) {
-            if (app.count(option) > 0) {
-                throw CLI::ValidationError(option, "only the distributed method takes it");
-            }
-        }
-        if (!is_cone(args.method) && app.count("--time-budget") > 0) {
-            throw CLI::ValidationError("--time-budget",
-                                       "only the distributed and the cone methods take it");
-        }
+    if (args.method != mrt::Method::Distributed) {
         return;
     }
     if (args.reference && args.time_budget > 0.0) {
@@ -225,15 +208,15 @@ int run(const Arguments& args) {
     // Building covers everything prepared before the first ray: the BVH and the mip-mapped
     // textures, so render times compare tracing alone.
     // The cone tracers read the hierarchy file instead of a BVH.
-    mrt::set_activity(
-        fmt::format("preparing {} for the {} method", args.scene.string(), args.method));
+    mrt::set_activity(fmt::format("preparing {} for the {} method", args.scene.string(),
+                                  mrt::to_string(args.method)));
     const auto build_start = Clock::now();
     std::optional<mrt::SceneBvh> bvh;
     std::optional<mrt::HierarchyFile> file;
     std::optional<mrt::HierarchyData> built;
     std::optional<mrt::ConeGeometry> geometry;
     const mrt::TextureSampler textures(scene, options.texture_filter, args.budgets);
-    if (is_cone(args.method)) {
+    if (mrt::is_cone(args.method)) {
         if (args.scene.extension() == ".mrh") {
             file.emplace(mrt::HierarchyFile::open(args.scene));
             geometry.emplace(file->view(), scene, textures);
@@ -260,13 +243,13 @@ int run(const Arguments& args) {
     const double build_seconds = seconds_since(build_start);
 
     mrt::set_activity(fmt::format("rendering {} ({}×{}, {})", args.scene.string(), options.width,
-                                  options.height, args.method));
+                                  options.height, mrt::to_string(args.method)));
     std::optional<mrt::ConeRenderStats> cone_stats;
     const auto render_start = Clock::now();
     mrt::RenderOutput out;
-    if (is_cone(args.method)) {
+    if (mrt::is_cone(args.method)) {
         mrt::ConeOptions cone;
-        cone.traversal.points = args.method == "cone";
+        cone.traversal.points = args.method == mrt::Method::Cone;
         cone.traversal.blend_levels = !args.no_level_blend;
         cone.traversal.node_frames = args.node_frames;
         cone.traversal.cull_closed_back_faces = !args.keep_back_faces;
@@ -274,14 +257,15 @@ int run(const Arguments& args) {
                                              ? mrt::TriangleWeight::Paper
                                              : mrt::TriangleWeight::Coverage;
         cone.traversal.max_anisotropy = args.max_anisotropy;
-        cone.time_budget = args.time_budget > 0.0
-                               ? args.time_budget
-                               : (args.method == "cone-classic" ? kClassicDefaultBudget : 0.0);
+        cone.time_budget =
+            args.time_budget > 0.0
+                ? args.time_budget
+                : (args.method == mrt::Method::ConeClassic ? kClassicDefaultBudget : 0.0);
         options.time_budget = cone.time_budget;
-        mrt::ConeRenderOutput result = mrt::render_cone(*geometry, options, cone, args.method);
+        mrt::ConeRenderOutput result = mrt::render_cone(*geometry, options, cone);
         out = std::move(result.render);
         cone_stats = result.stats;
-    } else if (args.method == "distributed") {
+    } else if (args.method == mrt::Method::Distributed) {
         out = mrt::render_distributed(scene, *bvh, textures, options);
     } else {
         out = mrt::render_whitted(scene, *bvh, textures, options);
@@ -309,7 +293,9 @@ int run(const Arguments& args) {
         stats.differentials = mrt::to_string(options.differentials);
         stats.passes = out.passes;
         stats.last_pass_seconds = out.last_pass_seconds;
-        stats.time_budget = options.time_budget;
+        if (options.time_budget > 0.0) {
+            stats.time_budget = options.time_budget;
+        }
         stats.samples = out.samples;
         stats.std_error = out.std_error;
         stats.threads = options.threads > 0 ? options.threads
@@ -322,6 +308,7 @@ int run(const Arguments& args) {
         stats.instanced_triangles = scene.instanced_triangle_count();
         stats.cone = cone_stats;
         stats.stopped = cone_stats && cone_stats->stopped;
+        stats.peak_rss_bytes = mrt::peak_rss_bytes();
         mrt::write_render_stats(args.stats, stats);
     }
     if (!args.quiet && isatty(STDERR_FILENO)) {
@@ -347,12 +334,13 @@ int main(int argc, char** argv) {
     app.add_option("scene", args.scene, "Scene file (.json) or hierarchy file (.mrh)")->required();
     app.add_option("-o,--output", args.output, "Output image (.exr linear, .png/.jpg sRGB)")
         ->required();
-    app.add_option("--method", args.method,
-                   "Tracer: whitted (conventional), distributed (adaptive stochastic), cone "
-                   "(multi-resolution cone tracing of a .mrh file) or cone-classic (the same "
-                   "against every triangle, no points)")
-        ->check(CLI::IsMember({"whitted", "distributed", "cone", "cone-classic"}))
-        ->default_val("whitted");
+    app.add_option_function<std::string>(
+           "--method", [&](const std::string& name) { args.method = mrt::parse_method(name); },
+           "Tracer: whitted (conventional), distributed (adaptive stochastic), cone "
+           "(multi-resolution cone tracing of a .mrh file) or cone-classic (the same "
+           "against every triangle, no points)")
+        ->check(CLI::IsMember(mrt::method_names()))
+        ->default_str(std::string(mrt::to_string(args.method)));
     app.add_option("--spp", args.spp,
                    "Samples per pixel: whitted's fixed jittered grid (default 1, the pixel "
                    "centre); distributed: one stratified batch, no adaptation; with --reference "

@@ -11,6 +11,7 @@
 #include "trace/compare/comparison_report.h"
 #include "trace/compare/method_spec.h"
 #include "trace/compare/reference_cache.h"
+#include "trace/render/method.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -220,14 +221,48 @@ TEST(MethodSpec, BudgetsHaveThreeSignificantDigitsAndAFloor) {
     EXPECT_EQ(mrt::budget_run_spec(sixteen, 0.001), "distributed:time-budget=0.2");
 }
 
-TEST(MethodSpec, MethodsAreReadFromTheMethodLineOfHelp) {
-    const std::string help =
-        "mrt-trace: render a scene\nUsage: mrt-trace [OPTIONS] scene\n\nOptions:\n"
-        "  -h,--help                   Print this help message and exit\n"
-        "  --method TEXT:{whitted,distributed,cone-classic} [whitted]  Tracer\n"
-        "  --spp INT:INT in [1 - 65536] [1]  Samples per pixel (cone tracing is not affected)\n";
-    EXPECT_EQ(mrt::methods_listed_in_help(help), (Args{"whitted", "distributed", "cone-classic"}));
-    EXPECT_TRUE(mrt::methods_listed_in_help("Usage: mrt-trace [OPTIONS]\n").empty());
+TEST(MethodSpec, EveryMethodsDefaultRunsAreMade) {
+    for (const mrt::Method method : mrt::kMethods) {
+        const bool has_runs = std::any_of(
+            mrt::default_runs().begin(), mrt::default_runs().end(),
+            [&](const mrt::DefaultRun& run) { return run.method == mrt::to_string(method); });
+        EXPECT_TRUE(has_runs) << method;
+    }
+}
+
+TEST(MethodSpec, AnOptionOnlyOtherMethodsTakeIsRefusedUpFront) {
+    const auto& set_by_compare = mrt::refused_option_keys();
+    for (const mrt::MethodOnlyOption& option : mrt::method_only_options()) {
+        if (std::find(set_by_compare.begin(), set_by_compare.end(), option.key) !=
+            set_by_compare.end()) {
+            continue;  // refused in every spec
+        }
+        for (const mrt::Method method : mrt::kMethods) {
+            const std::string spec =
+                std::string(mrt::to_string(method)) + ":" + std::string(option.key) + "=1";
+            if (option.methods.contains(method)) {
+                EXPECT_EQ(mrt::parse_method_spec(spec).options.size(), 1u) << spec;
+                continue;
+            }
+            const std::string message = error_message([&] { mrt::parse_method_spec(spec); });
+            EXPECT_TRUE(contains(message, "method spec \"" + spec + "\": the " +
+                                              std::string(mrt::to_string(method)) +
+                                              " method does not take option \"" +
+                                              std::string(option.key) + "\""))
+                << message;
+            EXPECT_TRUE(contains(message, mrt::refusal(option))) << message;
+        }
+    }
+    EXPECT_TRUE(contains(error_message([] { mrt::parse_method_spec("whitted:spp-max=4"); }),
+                         "(only the distributed method takes it)"));
+}
+
+TEST(MethodSpec, ANameThatIsNoMethodIsRefusedWithTheChoices) {
+    const std::string message = error_message([] { mrt::parse_method_spec("path:spp=4"); });
+    EXPECT_TRUE(contains(message,
+                         "\"path\" is not a method of mrt-trace (whitted, distributed, "
+                         "cone or cone-classic)"))
+        << message;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -501,10 +536,9 @@ mrt::ProcessResult run_compare(const Args& args) {
     return mrt::run_process(kCompareExe, args);
 }
 
-/// The methods mrt-trace's --help offers.
+/// The methods mrt-trace offers.
 Args offered_methods() {
-    const mrt::ProcessResult help = mrt::run_process(kTraceExe, {"--help"});
-    return mrt::methods_listed_in_help(help.out);
+    return mrt::method_names();
 }
 
 Args small(Args args) {

@@ -1,0 +1,109 @@
+#include "trace/render/method.h"
+
+#include "common/system/error.h"
+
+#include <algorithm>
+#include <ostream>
+
+namespace mrt {
+
+namespace {
+
+using enum Method;
+
+/// What each method reads beyond the options all of them do. The order is the order mrt-trace
+/// checks them in, so that of several wrong options the same one is named first.
+constexpr std::array kMethodOnlyOptions = {
+    MethodOnlyOption{"max-anisotropy", {Cone, ConeClassic}},
+    MethodOnlyOption{"no-level-blend", {Cone, ConeClassic}},
+    MethodOnlyOption{"node-frames", {Cone, ConeClassic}},
+    MethodOnlyOption{"keep-back-faces", {Cone, ConeClassic}},
+    MethodOnlyOption{"triangle-weight", {Cone, ConeClassic}},
+    MethodOnlyOption{"spp", {Whitted, Distributed}, "the cone methods trace one cone per pixel"},
+    MethodOnlyOption{"spp-initial", {Distributed}},
+    MethodOnlyOption{"spp-max", {Distributed}},
+    MethodOnlyOption{"target-error", {Distributed}},
+    MethodOnlyOption{"reference", {Distributed}},
+    MethodOnlyOption{"time-budget", {Distributed, Cone, ConeClassic}},
+};
+
+}  // namespace
+
+std::ostream& operator<<(std::ostream& os, Method method) {
+    return os << to_string(method);
+}
+
+std::optional<Method> find_method(std::string_view name) {
+    for (const Method m : kMethods) {
+        if (to_string(m) == name) {
+            return m;
+        }
+    }
+    return std::nullopt;
+}
+
+std::vector<std::string> method_names() {
+    std::vector<std::string> names;
+    for (const Method m : kMethods) {
+        names.emplace_back(to_string(m));
+    }
+    return names;
+}
+
+std::string method_choices() {
+    std::string text;
+    for (std::size_t i = 0; i < kMethods.size(); ++i) {
+        text += (i == 0 ? "" : i + 1 == kMethods.size() ? " or " : ", ");
+        text += to_string(kMethods[i]);
+    }
+    return text;
+}
+
+Method parse_method(std::string_view name) {
+    if (const std::optional<Method> method = find_method(name)) {
+        return *method;
+    }
+    throw Error("method \"" + std::string(name) + "\": no such method (expected " +
+                method_choices() + ")");
+}
+
+std::span<const MethodOnlyOption> method_only_options() {
+    return kMethodOnlyOptions;
+}
+
+const MethodOnlyOption* find_method_only_option(std::string_view key) {
+    const auto it = std::find_if(kMethodOnlyOptions.begin(), kMethodOnlyOptions.end(),
+                                 [&](const MethodOnlyOption& o) { return o.key == key; });
+    return it == kMethodOnlyOptions.end() ? nullptr : &*it;
+}
+
+bool takes_option(Method method, std::string_view key) {
+    const MethodOnlyOption* option = find_method_only_option(key);
+    return option == nullptr || option->methods.contains(method);
+}
+
+std::string refusal(const MethodOnlyOption& option) {
+    if (!option.reason.empty()) {
+        return std::string(option.reason);
+    }
+    // The two cone methods read the same options, so they are named together ("the cone
+    // methods").
+    const bool both_cones = option.methods.contains(Cone) && option.methods.contains(ConeClassic);
+    std::vector<std::string> names;
+    int count = 0;
+    for (const Method m : kMethods) {
+        if (option.methods.contains(m)) {
+            ++count;
+            if (!(both_cones && m == ConeClassic)) {
+                names.push_back("the " + std::string(to_string(m)));
+            }
+        }
+    }
+    std::string text = "only ";
+    for (std::size_t i = 0; i < names.size(); ++i) {
+        text += (i == 0 ? "" : i + 1 == names.size() ? " and " : ", ") + names[i];
+    }
+    return text + (count == 1 ? " method takes it" : " methods take it");
+}
+
+}  // namespace mrt
