@@ -1,8 +1,8 @@
 #pragma once
-// What one hierarchy build may spend (common/system/budgets.h) and what it has spent: representative
-// points over all of the scene's octrees, counted as each node chooses them and before they
-// are allocated, and octree levels, checked before a node is made. A refusal is one line naming
-// the scene file, the mesh or group, what the scene asks for and the limit.
+// What one hierarchy build may spend (common/system/budgets.h) and what it has spent:
+// representative points over all of the scene's octrees, counted as each node chooses them and
+// before they are allocated, and octree levels, checked before a node is made. A refusal is one
+// line naming the scene file, the mesh or group, what the scene asks for and the limit.
 
 #include "common/system/budgets.h"
 

@@ -1,17 +1,17 @@
 // mrt-preprocess: builds the multi-resolution point hierarchy of a scene (Wand & Straßer §3) and
 // writes it to one .mrh file.
 
-#include "common/system/atomic_file.h"
-#include "common/system/error.h"
+#include "common/cli/tool_main.h"
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/hierarchy/hierarchy_summary.h"
-#include "common/system/memory_usage.h"
-#include "common/system/progress.h"
 #include "common/scene_io/scene_loader.h"
 #include "common/scene_io/scene_record.h"
+#include "common/system/atomic_file.h"
+#include "common/system/error.h"
+#include "common/system/memory_usage.h"
+#include "common/system/progress.h"
 #include "common/system/stopwatch.h"
 #include "common/texture/texture.h"
-#include "common/cli/tool_main.h"
 #include "preprocess/hierarchy_pack.h"
 #include "preprocess/point_octree.h"
 #include "preprocess/scene_hierarchy.h"

@@ -13,10 +13,10 @@
 // averaged over its Gaussian), normals, and the normal gradient fitted to the samples' normals
 // (preprocess/normal_gradient.h).
 
-#include "common/system/budgets.h"
 #include "common/math/math.h"
 #include "common/mesh/mesh.h"
 #include "common/scene/scene.h"
+#include "common/system/budgets.h"
 #include "preprocess/triangle_sampling.h"
 
 #include <array>

@@ -1,9 +1,9 @@
 #include "preprocess/scene_hierarchy.h"
 
-#include "common/system/error.h"
 #include "common/math/invertibility.h"
-#include "common/system/progress.h"
 #include "common/math/random.h"
+#include "common/system/error.h"
+#include "common/system/progress.h"
 #include "preprocess/build_budget.h"
 #include "preprocess/octree_layout.h"
 #include "preprocess/surface_prefilter.h"

@@ -142,8 +142,8 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
     // the points whose Gaussians reach it, in proportion to their weights, so the points'
     // coverages add up to the surface's area wherever it lies relative to the grid (slanted
     // surfaces occupy more voxels, each with less area) — what a ray's quadrature over the
-    // points needs (common/footprint/point_weight.h). First each sample's total weight over the points,
-    // one voxel of samples at a time (each sample written once: the same for any schedule).
+    // points needs (common/footprint/point_weight.h). First each sample's total weight over the
+    // points, one voxel of samples at a time (each sample written once: the same for any schedule).
     std::vector<double> total_weight(samples.size(), 0.0);
     std::vector<std::size_t> runs;  // starts of runs of one voxel in the sorted samples
     for (std::size_t i = 0; i < sorted_voxels.size(); ++i) {

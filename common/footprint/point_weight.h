@@ -36,16 +36,16 @@
 // Clip. Gaussian factors below 2 % are dropped (§4.4, footnote 2), |G⁻¹x|² > ln 50 = 3.91,
 // which removes exactly 2 % of a 2D Gaussian's mass; the scale puts it back.
 //
-// κ. What is left is the error of the stored data, measured in tests/common/footprint/point_weight_test.cpp on
-// real octrees (planes at many orientations, a sphere, the Stanford bunny; docs/
-// point-weights.md). The octree makes both inputs of the quadrature right: coverage is each
-// point's share of its samples' area (so a node's coverages add up to its surface's area, seams
-// and the denser points of slanted surfaces included), and a point is placed on the surface,
-// voxel centre + offset·h·normal (preprocess/point_octree.h), not up to √3/2·h off it, where a
-// nearly axis-aligned surface would jump by h at each voxel layer it crosses. The unscaled sum
-// then ranges over [0.67, 1.38] in surface interiors (21 350 cones, mean 1.00; before the
-// octree stored offsets and area shares it was [0.30, 1.74]); κ = 1.6 lifts the minimum to 1.07
-// and puts the maximum at 2.2.
+// κ. What is left is the error of the stored data, measured in
+// tests/common/footprint/point_weight_test.cpp on real octrees (planes at many orientations, a
+// sphere, the Stanford bunny; docs/ point-weights.md). The octree makes both inputs of the
+// quadrature right: coverage is each point's share of its samples' area (so a node's coverages add
+// up to its surface's area, seams and the denser points of slanted surfaces included), and a point
+// is placed on the surface, voxel centre + offset·h·normal (preprocess/point_octree.h), not up to
+// √3/2·h off it, where a nearly axis-aligned surface would jump by h at each voxel layer it
+// crosses. The unscaled sum then ranges over [0.67, 1.38] in surface interiors (21 350 cones,
+// mean 1.00; before the octree stored offsets and area shares it was [0.30, 1.74]); κ = 1.6 lifts
+// the minimum to 1.07 and puts the maximum at 2.2.
 
 #include "common/footprint/footprint.h"
 #include "common/math/math.h"

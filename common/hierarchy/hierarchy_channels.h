@@ -1,7 +1,7 @@
 #pragma once
-// Which optional point channels of a hierarchy file (common/hierarchy/hierarchy_file.h) a scene needs: the
-// one rule by which the writer leaves channels out and the reader refuses a file that lacks one
-// its scene record's materials need (a mirror drawn without its reflectivity, say).
+// Which optional point channels of a hierarchy file (common/hierarchy/hierarchy_file.h) a scene
+// needs: the one rule by which the writer leaves channels out and the reader refuses a file that
+// lacks one its scene record's materials need (a mirror drawn without its reflectivity, say).
 
 #include "common/mesh/mesh.h"
 #include "common/scene/scene.h"

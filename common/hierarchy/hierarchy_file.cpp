@@ -1,7 +1,7 @@
 #include "common/hierarchy/hierarchy_file.h"
 
-#include "common/system/error.h"
 #include "common/math/invertibility.h"
+#include "common/system/error.h"
 
 #include <fmt/format.h>
 

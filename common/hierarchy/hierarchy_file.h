@@ -1,7 +1,7 @@
 #pragma once
 // The point hierarchy as stored in a .mrh file (DESIGN.md "The hierarchy file"): flat arrays of
-// quantized, fixed-size records in the sections of a SectionFile (common/hierarchy/section_file.h), read
-// in place from the memory map. Per-point data is split into channels, and a channel that no
+// quantized, fixed-size records in the sections of a SectionFile (common/hierarchy/section_file.h),
+// read in place from the memory map. Per-point data is split into channels, and a channel that no
 // point of the scene needs is left out of the file:
 //
 //   'HEAD' always         grid resolution and counts       (HierarchyHeader, 64 bytes)
@@ -26,13 +26,13 @@
 // children are consecutive. Triangles kept in nodes are listed in 'NTRI' (indices into 'TRIS');
 // vertices in 'VPOS' (float positions, object space), 'VNRM' (quantized normals) and, when
 // anything is textured, 'VTUV'. 'TMAT' holds each triangle's material. 'SCEN' is the scene
-// record (common/scene_io/scene_record.h: camera, lights, materials, textures; JSON text), 'BILD' JSON
-// text: the build parameters.
+// record (common/scene_io/scene_record.h: camera, lights, materials, textures; JSON text), 'BILD'
+// JSON text: the build parameters.
 
 #include "common/hierarchy/hierarchy_channels.h"
+#include "common/hierarchy/section_file.h"
 #include "common/math/math.h"
 #include "common/math/quantization.h"
-#include "common/hierarchy/section_file.h"
 
 #include <array>
 #include <cstdint>

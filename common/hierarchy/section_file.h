@@ -31,9 +31,9 @@
 // any damaged file instead of returning wrong data, up to checksum collisions (2^-64).
 //
 // Writing goes to a temporary file beside the target, renamed into place when complete
-// (common/system/atomic_file.h). Reading memory-maps the file read-only and validates all of the above
-// before handing out a single byte; the mapping must not be truncated by another process while
-// open (POSIX would deliver SIGBUS), which is the usual contract of memory-mapped files.
+// (common/system/atomic_file.h). Reading memory-maps the file read-only and validates all of the
+// above before handing out a single byte; the mapping must not be truncated by another process
+// while open (POSIX would deliver SIGBUS), which is the usual contract of memory-mapped files.
 
 #include <bit>
 #include <cstddef>

@@ -1,7 +1,7 @@
 #include "common/image/image.h"
 
-#include "common/system/error.h"
 #include "common/image/stderr_capture.h"
+#include "common/system/error.h"
 
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/strutil.h>

@@ -151,8 +151,9 @@ static_assert(sizeof(NormalCode) == 4);
 /// worst cells are at the octants' centres ±(1, 1, 1)/√3, where the map shears a grid cell of
 /// side h = 1/32767 into a rhombus with diagonals √18·h and √6·h; the point of such a rhombus
 /// farthest from its corners lies √2·h = 4.316e-5 from three of them. Measured: 4.3143e-5 over
-/// 5·10⁷ random and cell-centred directions; tests/common/math/quantization_test.cpp samples 2·10⁶ random
-/// directions, the poles, equator and edges, and 3.2·10⁶ directions in the octant-centre cells.
+/// 5·10⁷ random and cell-centred directions; tests/common/math/quantization_test.cpp samples 2·10⁶
+/// random directions, the poles, equator and edges, and 3.2·10⁶ directions in the octant-centre
+/// cells.
 inline constexpr float kNormalMaxAngularError = 4.35e-5f;
 
 /// Largest deviation of |decode_normal(code)| from 1 over every code (measured once over all

@@ -1,8 +1,8 @@
 #pragma once
 // Object spaces of ordinary magnitude. A mesh may be written at any scale and placed by any
 // transform: a sphere of radius 1e-13 scaled by 1e13 is a unit sphere in the world. The world
-// transform is fine (it is inverted in double, common/math/invertibility.h), but the object space is
-// not: the tracers intersect and the cone tracer weighs footprints in object space, where the
+// transform is fine (it is inverted in double, common/math/invertibility.h), but the object space
+// is not: the tracers intersect and the cone tracer weighs footprints in object space, where the
 // squares and fourth powers of 1e±13 leave the float range (a triangle test of 1e-30 coordinates
 // underflows; a cone's footprint matrix at 1e13 overflows). So a mesh whose coordinates are far
 // from magnitude 1 is rescaled by a power of two, which is exact in binary floating point (no

@@ -1,8 +1,8 @@
 #include "common/scene/scene.h"
 
+#include "common/math/invertibility.h"
 #include "common/system/budgets.h"
 #include "common/system/error.h"
-#include "common/math/invertibility.h"
 
 #include <fmt/format.h>
 

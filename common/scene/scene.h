@@ -102,8 +102,8 @@ struct Scene {
     std::uint32_t root = 0;
     /// Where this scene's origin is in the coordinates of the file it was written in: world space
     /// here (camera, lights, the world's transforms) is relative to it. The loader re-bases a
-    /// scene whose eye is far from the file's origin on the eye (common/scene/world_origin.h); zero for
-    /// a scene loaded with the numbers it was written with.
+    /// scene whose eye is far from the file's origin on the eye (common/scene/world_origin.h); zero
+    /// for a scene loaded with the numbers it was written with.
     Vec3d world_origin{0.0, 0.0, 0.0};
 
     /// Number of triangles after expanding every instance.
@@ -113,8 +113,8 @@ struct Scene {
 };
 
 /// The deepest group nesting any tool accepts, whatever the `group-nesting` budget says
-/// (common/system/budgets.h): the tracers' traversals and the preprocessor's builders recurse once per
-/// level, and at this depth their frames stay far below a worker thread's stack.
+/// (common/system/budgets.h): the tracers' traversals and the preprocessor's builders recurse once
+/// per level, and at this depth their frames stay far below a worker thread's stack.
 inline constexpr std::uint64_t kMaxSupportedGroupNesting = 256;
 
 /// What one group stands for once every instance below it is expanded. Counts saturate at the

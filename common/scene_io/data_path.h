@@ -15,7 +15,7 @@ std::vector<std::filesystem::path> data_search_path();
 
 /// Resolves `name` (relative or absolute) as described above. Returns nothing when no candidate
 /// exists.
-std::optional<std::filesystem::path> resolve_data_file(const std::string& name,
-                                                       const std::filesystem::path& relative_to_dir);
+std::optional<std::filesystem::path> resolve_data_file(
+    const std::string& name, const std::filesystem::path& relative_to_dir);
 
 }  // namespace mrt

@@ -3,11 +3,12 @@
 // with the file's own geometry — each mesh object's triangles and vertices (normals decoded from
 // their quantized form) as a mesh, each group object's instances as a group, the world object
 // as the root — so that every tracer can render a .mrh file without the scene it was built
-// from. load_scene (common/scene_io/scene_loader.h) calls it for files that begin with the .mrh magic.
+// from. load_scene (common/scene_io/scene_loader.h) calls it for files that begin with the .mrh
+// magic.
 
-#include "common/system/budgets.h"
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/scene/scene.h"
+#include "common/system/budgets.h"
 
 #include <filesystem>
 

@@ -1,16 +1,16 @@
 #include "common/scene_io/scene_loader.h"
 
-#include "common/system/budgets.h"
-#include "common/scene_io/data_path.h"
-#include "common/system/error.h"
-#include "common/scene_io/hierarchy_scene.h"
+#include "common/hierarchy/section_file.h"
 #include "common/math/invertibility.h"
 #include "common/mesh/mesh_io.h"
-#include "common/scene/object_scale.h"
 #include "common/mesh/procedural.h"
+#include "common/scene/object_scale.h"
 #include "common/scene/scene_json.h"
-#include "common/hierarchy/section_file.h"
 #include "common/scene/world_origin.h"
+#include "common/scene_io/data_path.h"
+#include "common/scene_io/hierarchy_scene.h"
+#include "common/system/budgets.h"
+#include "common/system/error.h"
 
 #include <fmt/format.h>
 

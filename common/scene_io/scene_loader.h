@@ -3,8 +3,8 @@
 // out-of-range values are errors naming the file, the JSON pointer of the value, what was found
 // and what was expected. See docs/scene-format.md.
 
-#include "common/system/budgets.h"
 #include "common/scene/scene.h"
+#include "common/system/budgets.h"
 
 #include <filesystem>
 #include <functional>

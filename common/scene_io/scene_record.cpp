@@ -1,8 +1,8 @@
 #include "common/scene_io/scene_record.h"
 
-#include "common/system/error.h"
 #include "common/scene/scene_json.h"
 #include "common/scene_io/scene_loader.h"
+#include "common/system/error.h"
 
 #include <fmt/format.h>
 
@@ -23,7 +23,8 @@ namespace mrt {
 namespace {
 
 // A field added to one of these types must be written below (and compared by
-// tests/common/scene_io/scene_record_test.cpp) before the sizes are updated; otherwise records would lose it.
+// tests/common/scene_io/scene_record_test.cpp) before the sizes are updated; otherwise records
+// would lose it.
 static_assert(sizeof(Camera) == 60, "write the new Camera field to the scene record");
 static_assert(sizeof(PointLight) == 24, "write the new PointLight field to the scene record");
 static_assert(sizeof(EllipticalAreaLight) == 52,

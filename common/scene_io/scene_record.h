@@ -12,8 +12,8 @@
 // always written, as a double: it tells the loader that the camera and lights (and the geometry
 // of the hierarchy file) are already relative to it, so they are not re-based again.
 
-#include "common/system/budgets.h"
 #include "common/scene/scene.h"
+#include "common/system/budgets.h"
 
 #include <filesystem>
 #include <string>

@@ -10,15 +10,16 @@
 namespace mrt {
 
 class Error : public std::runtime_error {
-public:
+  public:
     /// A message with no file attached (command line problems, internal limits).
     explicit Error(const std::string& message) : std::runtime_error(message) {}
 
     /// "FILE: LOCATION: MESSAGE" (the location is left out when empty).
-    Error(const std::filesystem::path& file, const std::string& location, const std::string& message)
+    Error(const std::filesystem::path& file, const std::string& location,
+          const std::string& message)
         : std::runtime_error(compose(file, location, message)) {}
 
-private:
+  private:
     static std::string compose(const std::filesystem::path& file, const std::string& location,
                                const std::string& message) {
         std::string s = file.string();

@@ -11,7 +11,7 @@
 namespace mrt {
 
 class Progress {
-public:
+  public:
     /// `total` units of work under the label `label`.
     Progress(std::string label, std::uint64_t total, bool quiet = false);
     ~Progress();
@@ -28,7 +28,7 @@ public:
     /// Whether a bar would be drawn (stderr is a terminal and not quiet).
     bool enabled() const { return m_enabled; }
 
-private:
+  private:
     void draw(std::uint64_t done);
 
     std::string m_label;

@@ -1,9 +1,9 @@
 #include "common/texture/texture.h"
 
-#include "common/system/budgets.h"
-#include "common/system/error.h"
 #include "common/image/image.h"
 #include "common/image/stderr_capture.h"
+#include "common/system/budgets.h"
+#include "common/system/error.h"
 #include "common/system/temporary_directory.h"
 
 #include <OpenImageIO/imagebuf.h>

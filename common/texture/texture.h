@@ -21,9 +21,9 @@
 //
 // Channels: one or two (grey, grey + alpha) are grey; three or more are RGB, extras ignored.
 
-#include "common/system/budgets.h"
 #include "common/math/math.h"
 #include "common/scene/scene.h"
+#include "common/system/budgets.h"
 
 #include <iosfwd>
 #include <memory>

@@ -5,14 +5,14 @@
 //
 // The bunny is found on $MRT_DATA (':'-separated), else in MRT_SOURCE_DIR/../shared/data.
 
-#include "trace/render/camera_rays.h"
-#include "common/scene_io/data_path.h"
-#include "common/system/error.h"
 #include "common/mesh/mesh_io.h"
 #include "common/scene/scene.h"
+#include "common/scene_io/data_path.h"
 #include "common/scene_io/scene_loader.h"
+#include "common/system/error.h"
 #include "trace/bvh/scene_bvh.h"
 #include "trace/bvh/triangle_bvh.h"
+#include "trace/render/camera_rays.h"
 
 #include <benchmark/benchmark.h>
 #include <oneapi/tbb/blocked_range2d.h>

@@ -10,9 +10,9 @@
 // low-discrepancy samples at c = kMatchingOversampling are as accurate as random ones at the
 // paper's c = 100 (and not at the next smaller c), and the error falls with c for both.
 
+#include "common/math/quantization.h"
 #include "common/mesh/mesh_io.h"
 #include "common/mesh/procedural.h"
-#include "common/math/quantization.h"
 #include "common/system/stopwatch.h"
 #include "preprocess/point_octree.h"
 #include "tests/support/test_support.h"

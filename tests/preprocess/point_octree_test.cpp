@@ -219,7 +219,10 @@ TEST(PointOctree, UniformMaterialIsExactAtEveryLevelAndFlatSurfacesAreCovered) {
             if (node.triangles.empty() && std::abs(c.x()) < 2.0f - margin * voxel &&
                 std::abs(c.z()) < 2.0f - margin * voxel && inside.x() > margin &&
                 inside.x() < k - margin && inside.z() > margin && inside.z() < k - margin) {
-                EXPECT_NEAR(p.coverage, 1.0f, 0.02f) << "level " << node.level << " y/voxel " << c.y() / voxel << " inside " << inside.transpose() << " side " << node.side << " origin " << node.origin.transpose();
+                EXPECT_NEAR(p.coverage, 1.0f, 0.02f)
+                    << "level " << node.level << " y/voxel " << c.y() / voxel << " inside "
+                    << inside.transpose() << " side " << node.side << " origin "
+                    << node.origin.transpose();
                 ++interior;
             }
         }

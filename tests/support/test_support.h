@@ -1,10 +1,10 @@
 #pragma once
 // Small helpers shared by the test suites.
 
-#include "common/scene_io/data_path.h"
-#include "common/system/error.h"
 #include "common/image/image.h"
 #include "common/scene/scene.h"
+#include "common/scene_io/data_path.h"
+#include "common/system/error.h"
 #include "trace/render/render.h"
 
 #include <gtest/gtest.h>

@@ -5,8 +5,8 @@
 // distance, with a fixed stack; triangles are tested four at a time with the watertight test of
 // trace/bvh/triangle_intersect.h.
 
-#include "common/mesh/mesh.h"
 #include "common/math/ray.h"
+#include "common/mesh/mesh.h"
 
 #include <cstdint>
 #include <vector>
@@ -16,9 +16,9 @@ namespace mrt {
 /// 4-wide node: the boxes of up to four children as structure of arrays, so one SSE slab test
 /// checks all four (Dammertz, Hanika & Keller 2008, "Shallow Bounding Volume Hierarchies for
 /// Fast SIMD Ray Tracing of Incoherent Rays"; Ernst & Greiner 2008, "Multi Bounding Volume
-/// Hierarchies"). The binned-SAH binary tree (32-byte nodes, see trace/bvh/bvh_build.h) is collapsed
-/// into these: half the depth, hence half the dependent node fetches and branches per ray.
-/// Nodes are in depth-first order: a node's first inner child directly follows it.
+/// Hierarchies"). The binned-SAH binary tree (32-byte nodes, see trace/bvh/bvh_build.h) is
+/// collapsed into these: half the depth, hence half the dependent node fetches and branches per
+/// ray. Nodes are in depth-first order: a node's first inner child directly follows it.
 struct alignas(64) BvhNode {
     /// Per child lane: lower x, upper x, lower y, upper y, lower z, upper z. Unused lanes hold an
     /// empty box (lower +inf, upper −inf) that no ray enters.

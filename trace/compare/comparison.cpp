@@ -1,14 +1,14 @@
 #include "trace/compare/comparison.h"
 
-#include "common/system/error.h"
 #include "common/image/image.h"
 #include "common/image/image_metrics.h"
-#include "trace/compare/montage.h"
+#include "common/system/error.h"
 #include "trace/compare/child_process.h"
 #include "trace/compare/comparison_report.h"
 #include "trace/compare/equal_error.h"
 #include "trace/compare/headline_ratios.h"
 #include "trace/compare/method_spec.h"
+#include "trace/compare/montage.h"
 #include "trace/render/method.h"
 
 #include <fmt/format.h>

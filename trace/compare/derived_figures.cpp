@@ -1,6 +1,7 @@
 #include "trace/compare/derived_figures.h"
 
 #include "trace/compare/method_spec.h"
+#include "trace/render/method.h"
 
 #include <algorithm>
 #include <cmath>
@@ -77,11 +78,12 @@ std::pair<std::size_t, std::string> choose_baseline(const std::vector<RunResult>
         return best;
     };
     for (std::size_t i = 0; i < runs.size(); ++i) {
-        if (usable(runs[i]) && runs[i].method == "cone") {
+        if (usable(runs[i]) && runs[i].method == to_string(Method::Cone)) {
             return {i, "first cone run"};
         }
     }
-    if (const auto w = fastest([](const RunResult& r) { return r.method == "whitted"; })) {
+    if (const auto w =
+            fastest([](const RunResult& r) { return r.method == to_string(Method::Whitted); })) {
         return {*w, "fastest whitted run"};
     }
     return {*fastest([](const RunResult&) { return true; }),

@@ -1,4 +1,5 @@
 #include "trace/compare/headline_ratios.h"
+#include "trace/render/method.h"
 
 #include <algorithm>
 
@@ -102,15 +103,17 @@ BudgetCurve budget_curve(const std::vector<RunResult>& runs, const DefaultRun& k
 
 std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs) {
     std::vector<HeadlineRatio> ratios;
-    const RunResult* whitted = find_run(
-        runs, [](const MethodSpec& s) { return s.method == "whitted" && s.options.empty(); });
-    const RunResult* cone =
-        find_run(runs, [](const MethodSpec& s) { return s.method == "cone" && s.options.empty(); });
+    const RunResult* whitted = find_run(runs, [](const MethodSpec& s) {
+        return s.method == to_string(Method::Whitted) && s.options.empty();
+    });
+    const RunResult* cone = find_run(runs, [](const MethodSpec& s) {
+        return s.method == to_string(Method::Cone) && s.options.empty();
+    });
     const RunResult* cone_primary = find_run(runs, [](const MethodSpec& s) {
-        return s.method == "cone" && s.options.size() == 1 && is_primary_only(s);
+        return s.method == to_string(Method::Cone) && s.options.size() == 1 && is_primary_only(s);
     });
     const RunResult* classic_primary = find_run(runs, [](const MethodSpec& s) {
-        return s.method == "cone-classic" && is_primary_only(s) &&
+        return s.method == to_string(Method::ConeClassic) && is_primary_only(s) &&
                has_only(s, {"max-depth", "time-budget"});
     });
 
@@ -118,7 +121,7 @@ std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs) {
         ratios.push_back(time_ratio("cone_over_whitted", *cone, *whitted));
     }
     DefaultRun distributed;
-    distributed.method = "distributed";
+    distributed.method = to_string(Method::Distributed);
     const BudgetCurve curve = budget_curve(runs, distributed, ErrorMeasure::Rmse);
     const BudgetCurve display_curve = budget_curve(runs, distributed, ErrorMeasure::DisplayRmse);
     if (cone != nullptr && cone->render_seconds > 0.0) {

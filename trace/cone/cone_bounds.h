@@ -1,8 +1,8 @@
 #pragma once
 // The cone–bounding-sphere test of Wand & Straßer §4.6, conservative and elliptical: the
 // traversal may skip a node only when no part of its bounding sphere can lie inside the cone's
-// clip ellipse (weight ≥ 2 %, common/footprint/point_weight.h) at any depth the sphere spans. A circular
-// approximation of the ellipse would make highly anisotropic cones (grazing views, the
+// clip ellipse (weight ≥ 2 %, common/footprint/point_weight.h) at any depth the sphere spans. A
+// circular approximation of the ellipse would make highly anisotropic cones (grazing views, the
 // anisotropy clamp's 8:1) visit every node along their major axis; the test works in the
 // ellipse's principal axes instead, as the paper does.
 //
@@ -27,8 +27,8 @@ namespace mrt {
 
 /// Whether the sphere may touch the part t ∈ [t_min, t_max] of `cone`, whose footprints are
 /// clamped to `max_anisotropy` (≥ 1) and widened by `widening` (the radius of the points'
-/// kernel, common/footprint/point_weight.h; 0 for none) before points are weighed: false only when it
-/// cannot. Non-finite input is answered true, so a damaged value never hides geometry.
+/// kernel, common/footprint/point_weight.h; 0 for none) before points are weighed: false only when
+/// it cannot. Non-finite input is answered true, so a damaged value never hides geometry.
 bool cone_may_touch_sphere(const SphereInRayFrame& sphere, const FootprintCone& cone,
                            float max_anisotropy, float widening, float t_min, float t_max);
 

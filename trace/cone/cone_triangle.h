@@ -19,8 +19,8 @@
 // Mapping. For a footprint F the Gaussian is exp(−|F⁻¹x|²). With F·Fᵀ = U·Λ·Uᵀ, the map
 // y = U·Λ^(−1/2)·Uᵀ·x = (F·Fᵀ)^(−1/2)·x differs from F⁻¹x by a rotation, so it gives the same
 // Gaussian, and it is computed from the stable closed-form eigen-decomposition
-// (common/footprint/footprint.h) instead of an inverse that loses everything when F's columns are nearly
-// collinear; the anisotropy clamp bounds Λ's condition. The rotation back by U makes the map
+// (common/footprint/footprint.h) instead of an inverse that loses everything when F's columns are
+// nearly collinear; the anisotropy clamp bounds Λ's condition. The rotation back by U makes the map
 // unique and continuous in F, which mapping each vertex with the footprint at its own depth
 // (the exact version of §5.2) needs: Λ^(−1/2)·Uᵀ alone would turn with the axes of an almost
 // round footprint. The tracer (trace/cone/cone_traversal.h) passes three frames at the vertices'

@@ -25,8 +25,8 @@
 
 #include "common/scene/scene.h"
 #include "common/texture/texture.h"
-#include "trace/render/render.h"
 #include "trace/bvh/scene_bvh.h"
+#include "trace/render/render.h"
 
 namespace mrt {
 

@@ -6,9 +6,9 @@
 // (trace/raytrace/ray_tree.h).
 
 #include "common/scene/scene.h"
+#include "trace/bvh/scene_bvh.h"
 #include "trace/raytrace/ray_tree.h"
 #include "trace/render/render.h"
-#include "trace/bvh/scene_bvh.h"
 
 namespace mrt {
 

@@ -1,8 +1,8 @@
 // mrt-compare: renders a scene with several methods (through mrt-trace) and measures each
 // against a reference: image error (RMSE, PSNR, SSIM, error images) against run time.
 
-#include "common/system/error.h"
 #include "common/cli/tool_main.h"
+#include "common/system/error.h"
 #include "trace/compare/comparison.h"
 #include "trace/compare/comparison_report.h"
 

@@ -1,10 +1,10 @@
 // mrt-info: what a .mrh hierarchy file holds — format version, channels present, points and
 // triangles per level, bytes per section, build parameters.
 
-#include "common/system/error.h"
+#include "common/cli/tool_main.h"
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/hierarchy/hierarchy_summary.h"
-#include "common/cli/tool_main.h"
+#include "common/system/error.h"
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>

@@ -1,5 +1,5 @@
-// Point weights (common/footprint/point_weight.h) against what they approximate: the integral of the
-// normalised Gaussian over the surface a cone sees. On ideal lattices the sum must be κ (the
+// Point weights (common/footprint/point_weight.h) against what they approximate: the integral of
+// the normalised Gaussian over the surface a cone sees. On ideal lattices the sum must be κ (the
 // analytic integral) and ripple no more than Poisson summation allows at the selection
 // threshold; on real octrees (build_point_octree, coverage quantized as the file stores it)
 // the sum over a surface's points must be at least one in the interior of the surface at every
@@ -11,9 +11,9 @@
 
 #include "common/footprint/point_weight.h"
 #include "common/footprint/footprint.h"
+#include "common/math/quantization.h"
 #include "common/mesh/mesh_io.h"
 #include "common/mesh/procedural.h"
-#include "common/math/quantization.h"
 #include "preprocess/point_octree.h"
 #include "tests/support/test_support.h"
 #include "trace/bvh/triangle_bvh.h"

@@ -5,8 +5,8 @@
 
 #include "common/hierarchy/hierarchy_file.h"
 
-#include "common/system/error.h"
 #include "common/hierarchy/section_file.h"
+#include "common/system/error.h"
 #include "tests/support/test_support.h"
 
 #include <gtest/gtest.h>

@@ -9,9 +9,9 @@
 // see an out-of-range index into them: the walk below checks every index explicitly, restating
 // the format of hierarchy_file.h without calling the reader's checks.
 
-#include "common/system/error.h"
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/hierarchy/section_file.h"
+#include "common/system/error.h"
 
 #include <gtest/gtest.h>
 #include <spawn.h>

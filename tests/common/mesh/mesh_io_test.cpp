@@ -1,7 +1,7 @@
 #include "common/mesh/mesh_io.h"
+#include "common/mesh/mesh.h"
 #include "common/scene_io/data_path.h"
 #include "common/system/error.h"
-#include "common/mesh/mesh.h"
 #include "tests/support/test_support.h"
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 #include "common/mesh/procedural.h"
-#include "common/system/error.h"
 #include "common/mesh/mesh.h"
+#include "common/system/error.h"
 
 #include <gtest/gtest.h>
 

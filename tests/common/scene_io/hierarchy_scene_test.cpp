@@ -3,13 +3,13 @@
 // it (or flattened), and the tracers render it like the scene file; instanced and flattened
 // builds render alike.
 
-#include "common/system/error.h"
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/image/image_metrics.h"
-#include "common/mesh/procedural.h"
 #include "common/math/quantization.h"
+#include "common/mesh/procedural.h"
 #include "common/scene_io/scene_loader.h"
 #include "common/scene_io/scene_record.h"
+#include "common/system/error.h"
 #include "preprocess/hierarchy_pack.h"
 #include "preprocess/scene_hierarchy.h"
 #include "tests/support/test_support.h"

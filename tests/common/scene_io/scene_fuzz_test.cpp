@@ -8,10 +8,10 @@
 // 2 with one line on stderr naming the file and no output left behind, or exit 0 within the limit
 // with an image free of NaN. Counts per kind of mutation are printed for the record.
 
-#include "common/scene_io/data_path.h"
-#include "common/system/error.h"
 #include "common/scene/scene.h"
+#include "common/scene_io/data_path.h"
 #include "common/scene_io/scene_loader.h"
+#include "common/system/error.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -1,10 +1,10 @@
 #include "common/scene_io/scene_loader.h"
-#include "common/scene_io/data_path.h"
-#include "common/system/error.h"
 #include "common/math/invertibility.h"
 #include "common/mesh/procedural.h"
 #include "common/scene/scene.h"
 #include "common/scene/scene_json.h"
+#include "common/scene_io/data_path.h"
+#include "common/system/error.h"
 
 #include <gtest/gtest.h>
 
@@ -1349,7 +1349,8 @@ TEST(Scene, PrintsMaterialWithItsName) {
     EXPECT_NE(out.str().find("ior=1.25"), std::string::npos) << out.str();
 }
 
-// ---- Invertibility whatever the scale (common/math/invertibility.h) ------------------------------
+// ---- Invertibility whatever the scale (common/math/invertibility.h)
+// ------------------------------
 
 /// The linear part of the world's first object's transform, as `transform` composes it.
 Mat3f linear_of(const std::string& transform) {

@@ -1,8 +1,8 @@
 #include "common/scene_io/scene_record.h"
 
-#include "common/system/error.h"
 #include "common/scene/scene.h"
 #include "common/scene_io/scene_loader.h"
+#include "common/system/error.h"
 #include "tests/support/test_support.h"
 
 #include <fmt/format.h>

@@ -3,11 +3,11 @@
 // random soups and on degenerate inputs; a scene of nested instanced groups must match its
 // flattened copy.
 
-#include "common/scene_io/data_path.h"
-#include "common/system/error.h"
 #include "common/mesh/mesh_io.h"
 #include "common/mesh/procedural.h"
 #include "common/scene/scene.h"
+#include "common/scene_io/data_path.h"
+#include "common/system/error.h"
 #include "tests/support/test_support.h"
 #include "trace/bvh/bvh_build.h"
 #include "trace/bvh/scene_bvh.h"

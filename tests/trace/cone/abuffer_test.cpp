@@ -8,8 +8,8 @@
 
 #include "common/footprint/footprint.h"
 #include "common/footprint/point_weight.h"
-#include "common/mesh/procedural.h"
 #include "common/math/quantization.h"
+#include "common/mesh/procedural.h"
 #include "preprocess/point_octree.h"
 
 #include <gtest/gtest.h>

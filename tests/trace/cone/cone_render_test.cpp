@@ -6,7 +6,6 @@
 // Measured values are printed and recorded as test properties (RecordProperty); the margins
 // noted beside each tolerance are from Release runs on the development machine.
 
-#include "trace/render/camera_rays.h"
 #include "common/image/image.h"
 #include "common/image/image_metrics.h"
 #include "common/scene_io/scene_loader.h"
@@ -14,10 +13,11 @@
 #include "preprocess/hierarchy_pack.h"
 #include "preprocess/scene_hierarchy.h"
 #include "tests/support/test_support.h"
+#include "trace/bvh/scene_bvh.h"
 #include "trace/cone/cone_tracer.h"
 #include "trace/raytrace/distributed.h"
-#include "trace/bvh/scene_bvh.h"
 #include "trace/raytrace/whitted.h"
+#include "trace/render/camera_rays.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -934,8 +934,8 @@ TEST(ConeRender, RoughnessBlursReflectionsAsTheStochasticTracerDoes) {
 // ---------------------------------------------------------------------------------------------
 // Closed surfaces: a thin solid covers what its silhouette covers, not twice that.
 
-/// A leafless plant (closed branches only, trace/cone/closed_surfaces.h), black and unlit, against a
-/// white sky: the image is the sky's transmittance, 1 − coverage. From 14 units away its branches
+/// A leafless plant (closed branches only, trace/cone/closed_surfaces.h), black and unlit, against
+/// a white sky: the image is the sky's transmittance, 1 − coverage. From 14 units away its branches
 /// (radius 0.02 down to 0.003) are a pixel wide and less.
 json bare_plant(int resolution) {
     return {{"camera", camera_json(vec(0, 0.5, 14), vec(0, 0.5, 0), 8, resolution, resolution)},

@@ -9,8 +9,8 @@
 #include "common/scene_io/scene_loader.h"
 #include "common/texture/texture.h"
 #include "tests/support/test_support.h"
-#include "trace/raytrace/ray_tree.h"
 #include "trace/bvh/scene_bvh.h"
+#include "trace/raytrace/ray_tree.h"
 
 #include <gtest/gtest.h>
 

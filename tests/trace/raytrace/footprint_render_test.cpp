@@ -5,18 +5,18 @@
 // the same way. And full renders of stiff cases (grazing incidence, silhouettes, the critical
 // angle, degenerate triangles, a scene far from the origin) that must stay finite and bounded.
 
-#include "trace/render/camera_rays.h"
 #include "common/footprint/footprint.h"
 #include "common/image/image.h"
 #include "common/scene_io/scene_loader.h"
 #include "common/texture/texture.h"
 #include "tests/support/test_support.h"
+#include "trace/bvh/scene_bvh.h"
 #include "trace/raytrace/distributed.h"
 #include "trace/raytrace/ray_tree.h"
-#include "trace/bvh/scene_bvh.h"
-#include "trace/render/shading.h"
 #include "trace/raytrace/surface_point.h"
 #include "trace/raytrace/whitted.h"
+#include "trace/render/camera_rays.h"
+#include "trace/render/shading.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

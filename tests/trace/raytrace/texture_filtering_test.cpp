@@ -7,8 +7,8 @@
 #include "common/image/image_metrics.h"
 #include "common/scene_io/scene_loader.h"
 #include "tests/support/test_support.h"
-#include "trace/raytrace/distributed.h"
 #include "trace/bvh/scene_bvh.h"
+#include "trace/raytrace/distributed.h"
 #include "trace/raytrace/whitted.h"
 
 #include <gtest/gtest.h>

@@ -3,13 +3,13 @@
 // plus determinism across thread counts and a regression image of the default scene.
 
 #include "trace/raytrace/whitted.h"
-#include "trace/render/camera_rays.h"
 #include "common/image/image.h"
 #include "common/image/image_metrics.h"
 #include "common/mesh/procedural.h"
 #include "common/scene_io/scene_loader.h"
 #include "tests/support/test_support.h"
 #include "trace/bvh/scene_bvh.h"
+#include "trace/render/camera_rays.h"
 #include "trace/render/shading.h"
 
 #include <gtest/gtest.h>

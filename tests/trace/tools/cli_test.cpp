@@ -1,12 +1,12 @@
 // mrt-trace as a user meets it: exit codes, one-line messages naming the file, and the stats
 // JSON contract.
 
-#include "common/system/error.h"
+#include "common/cli/tool_main.h"
 #include "common/hierarchy/hierarchy_file.h"
+#include "common/hierarchy/section_file.h"
 #include "common/image/image.h"
 #include "common/scene_io/scene_loader.h"
-#include "common/hierarchy/section_file.h"
-#include "common/cli/tool_main.h"
+#include "common/system/error.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
-// Precision far from the origin (common/scene/world_origin.h): a scene translated as a whole — camera,
-// lights and every object — renders the image it renders at the origin, with each method. The
-// reference is the same scene untranslated; the loader re-bases the translated one on its eye,
+// Precision far from the origin (common/scene/world_origin.h): a scene translated as a whole —
+// camera, lights and every object — renders the image it renders at the origin, with each method.
+// The reference is the same scene untranslated; the loader re-bases the translated one on its eye,
 // so only the double-precision subtraction of the offset separates the two.
 //
 // The scene is chosen to show float faceting at once: a checkerboard whose edges cross the whole
@@ -18,9 +18,9 @@
 #include "preprocess/hierarchy_pack.h"
 #include "preprocess/scene_hierarchy.h"
 #include "tests/support/test_support.h"
+#include "trace/bvh/scene_bvh.h"
 #include "trace/cone/cone_tracer.h"
 #include "trace/raytrace/distributed.h"
-#include "trace/bvh/scene_bvh.h"
 #include "trace/raytrace/whitted.h"
 
 #include <fmt/format.h>
