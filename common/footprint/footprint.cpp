@@ -267,9 +267,8 @@ RootParts root_parts(float a, float b, float c) {
     return r;
 }
 
-/// The square root of the symmetric positive semi-definite [[a, b], [b, c]].
-Mat2f symmetric_root(float a, float b, float c) {
-    const RootParts r = root_parts(a, b, c);
+/// The square root of the symmetric positive semi-definite matrix whose parts `r` are.
+Mat2f symmetric_root(const RootParts& r) {
     if (!r.valid) {
         return Mat2f::Zero();
     }
@@ -279,13 +278,17 @@ Mat2f symmetric_root(float a, float b, float c) {
     return root;
 }
 
-/// The derivative of symmetric_root(a, b, c) along the symmetric direction (da, db, dc): with
-/// C/m, s and τ as there, dR = √m·(dC/m + ds·I − (C/m + s·I)·dτ/τ)/τ, ds = d(det)/(2s),
-/// dτ = (tr dC/m + 2·ds)/(2τ). Where C is singular (a footprint collapsed to a segment)
-/// det C ≥ 0 is at its minimum and ds is taken as 0: √det has no derivative there, and 0 is the
-/// mean of its one-sided ones.
-Mat2f symmetric_root_derivative(float a, float b, float c, float da, float db, float dc) {
-    const RootParts r = root_parts(a, b, c);
+/// The square root of the symmetric positive semi-definite [[a, b], [b, c]].
+Mat2f symmetric_root(float a, float b, float c) {
+    return symmetric_root(root_parts(a, b, c));
+}
+
+/// The derivative of the root of the matrix whose parts `r` are, along the symmetric direction (da,
+/// db, dc): with C/m, s and τ as there, dR = √m·(dC/m + ds·I − (C/m + s·I)·dτ/τ)/τ, ds =
+/// d(det)/(2s), dτ = (tr dC/m + 2·ds)/(2τ). Where C is singular (a footprint collapsed to a
+/// segment) det C ≥ 0 is at its minimum and ds is taken as 0: √det has no derivative there, and 0
+/// is the mean of its one-sided ones.
+Mat2f symmetric_root_derivative(const RootParts& r, float da, float db, float dc) {
     if (!r.valid) {
         return Mat2f::Zero();
     }
@@ -310,19 +313,26 @@ Mat2f symmetric_root_derivative(float a, float b, float c, float da, float db, f
 
 }  // namespace
 
-Mat2f FootprintCone::growth_at(float t) const {
+FootprintCone::Local FootprintCone::local_at(float t) const {
     if (!blurred) {
-        return incr_dev;
+        return {pixel_at(t), incr_dev};
     }
-    // C(t) = F·Fᵀ + B·Bᵀ with F and B linear in t: dC = F·dFᵀ + dF·Fᵀ + B·dBᵀ + dB·Bᵀ.
+    // C(t) = F·Fᵀ + B·Bᵀ with F and B linear in t: dC = F·dFᵀ + dF·Fᵀ + B·dBᵀ + dB·Bᵀ. The root
+    // and its derivative share one set of parts.
     const Mat2f f = pixel_at(t);
     const Mat2f b = blur_start + t * blur_incr;
     const Mat2f sum = f * f.transpose() + b * b.transpose();
+    const RootParts parts = root_parts(sum(0, 0), 0.5f * (sum(0, 1) + sum(1, 0)), sum(1, 1));
     const Mat2f half_derivative = f * incr_dev.transpose() + b * blur_incr.transpose();
     const Mat2f derivative = half_derivative + half_derivative.transpose();
-    return symmetric_root_derivative(sum(0, 0), 0.5f * (sum(0, 1) + sum(1, 0)), sum(1, 1),
-                                     derivative(0, 0), 0.5f * (derivative(0, 1) + derivative(1, 0)),
-                                     derivative(1, 1));
+    return {
+        symmetric_root(parts),
+        symmetric_root_derivative(parts, derivative(0, 0),
+                                  0.5f * (derivative(0, 1) + derivative(1, 0)), derivative(1, 1))};
+}
+
+Mat2f FootprintCone::growth_at(float t) const {
+    return local_at(t).growth;
 }
 
 Mat2f FootprintCone::widened(const Mat2f& footprint, float radius) {

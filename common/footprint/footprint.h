@@ -174,6 +174,14 @@ struct FootprintCone {
     /// convolved's Cayley–Hamilton root). The directional differentials of the footprint at t.
     Mat2f growth_at(float t) const;
 
+    /// The footprint at t and its growth there, at(t) and growth_at(t), from one decomposition
+    /// of the blurred footprint instead of two (the cone shader needs both at every fragment).
+    struct Local {
+        Mat2f footprint;
+        Mat2f growth;
+    };
+    Local local_at(float t) const;
+
     /// Adds the cone B(t) = start + t·incr to the blur (squared matrices add, so blurs
     /// accumulate: a rough reflection of a blurred ray stays blurred).
     void add_blur(const Mat2f& start, const Mat2f& incr);

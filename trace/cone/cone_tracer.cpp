@@ -180,10 +180,9 @@ class ConeTracer {
     /// the directional differentials (for a blurred cone, of the convolved footprint).
     static RayDifferential at_surface(const ConeRay& ray, float t, const Vec3f& n) {
         const FootprintCone& cone = ray.cone;
-        const Mat2f footprint = cone.at(t);
-        const Mat2f growth = cone.growth_at(t);
-        const Mat32f position = cone.basis() * footprint;
-        const Mat32f direction = cone.basis() * growth;
+        const FootprintCone::Local local = cone.local_at(t);
+        const Mat32f position = cone.basis() * local.footprint;
+        const Mat32f direction = cone.basis() * local.growth;
         RayDifferential rd;
         rd.dp_dx = position.col(0);
         rd.dp_dy = position.col(1);

@@ -953,6 +953,8 @@ TEST(FootprintBlur, GrowthMatchesADoubleDifferenceOnRandomCones) {
         const Mat2f growth = cone.growth_at(t);
         ASSERT_TRUE(growth.allFinite()) << "t " << t;
         EXPECT_EQ(growth(0, 1), growth(1, 0));
+        // The shader's one-decomposition footprint is the traversal's at(t), to the bit.
+        EXPECT_EQ(cone.local_at(t).footprint, cone.at(t)) << "t " << t;
         const double error = growth_error(cone, t);
         // Float rounding of C and of the root, amplified where the footprint is thin: the
         // minor axis's derivative divides by its own root.
