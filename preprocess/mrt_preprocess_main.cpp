@@ -66,12 +66,14 @@ int run(const Arguments& args) {
 
     mrt::set_activity("building the hierarchy of " + args.scene.string());
     const auto build_start = Clock::now();
-    mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene, args.flatten),
+    const mrt::Instancing instancing =
+        args.flatten ? mrt::Instancing::Flatten : mrt::Instancing::Keep;
+    mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene, instancing),
                            args.quiet);
     mrt::PointOctreeOptions octree = args.octree;
     octree.budgets = args.budgets;
     const mrt::SceneHierarchy hierarchy =
-        mrt::build_scene_hierarchy(scene, textures.get(), octree, args.flatten, &progress);
+        mrt::build_scene_hierarchy(scene, textures.get(), octree, instancing, &progress);
     progress.finish();
     const double build_seconds = seconds_since(build_start);
 

@@ -602,8 +602,8 @@ class GroupBuilder {
 
 }  // namespace
 
-std::uint64_t hierarchy_progress_total(const Scene& scene, bool flatten) {
-    if (flatten) {
+std::uint64_t hierarchy_progress_total(const Scene& scene, Instancing instancing) {
+    if (instancing == Instancing::Flatten) {
         return scene.instanced_triangle_count();
     }
     std::uint64_t total = scene.unique_triangle_count();
@@ -614,12 +614,12 @@ std::uint64_t hierarchy_progress_total(const Scene& scene, bool flatten) {
 }
 
 SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* textures,
-                                     const PointOctreeOptions& options, bool flatten,
+                                     const PointOctreeOptions& options, Instancing instancing,
                                      Progress* progress) {
     SceneHierarchy h;
     h.options = options;
     BuildBudget budget(options.budgets, scene.file);
-    if (flatten) {
+    if (instancing == Instancing::Flatten) {
         auto world = std::make_unique<Mesh>(mrt::flatten(scene));
         if (world->triangles.empty()) {
             throw Error(scene.file, "", "the scene has no triangles to build a hierarchy of");

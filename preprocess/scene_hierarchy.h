@@ -68,7 +68,13 @@ struct SceneHierarchy {
     HierarchyWork work;                     ///< What the instance trees' points cost.
 };
 
-/// Builds the hierarchy of `scene`'s world. With `flatten`, one octree over every triangle in
+/// How a build treats the scene's instances.
+enum class Instancing : std::uint8_t {
+    Keep,     ///< Unique geometry once, placed by instance trees (the default).
+    Flatten,  ///< Every instance expanded into one world-space mesh (mrt-preprocess --flatten).
+};
+
+/// Builds the hierarchy of `scene`'s world. Flattened, one octree over every triangle in
 /// world space instead (instances expanded). `textures` may be null when nothing is textured.
 /// Refuses (mrt::Error naming scene.file and the mesh or group) geometry beyond what single-
 /// precision node cubes hold and builds over options.budgets (points, octree depth).
@@ -76,13 +82,15 @@ struct SceneHierarchy {
 /// one per triangle coming to rest in a mesh octree and by a group's instances when its
 /// instance tree has its points (its total: hierarchy_progress_total).
 SceneHierarchy build_scene_hierarchy(const Scene& scene, const TextureSampler* textures,
-                                     const PointOctreeOptions& options, bool flatten,
+                                     const PointOctreeOptions& options,
+                                     Instancing instancing = Instancing::Keep,
                                      Progress* progress = nullptr);
 
 /// The units build_scene_hierarchy advances a progress bar by when it builds every mesh and
 /// group of the scene: the unique triangles and the groups' instances (flattened: every
 /// instanced triangle).
-std::uint64_t hierarchy_progress_total(const Scene& scene, bool flatten);
+std::uint64_t hierarchy_progress_total(const Scene& scene,
+                                       Instancing instancing = Instancing::Keep);
 
 /// Most instances a leaf of an instance tree holds.
 inline constexpr std::size_t kInstancesPerLeaf = 4;

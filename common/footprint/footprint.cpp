@@ -119,7 +119,7 @@ bool RayDifferential::finite() const {
 
 SurfaceDifferential triangle_differential(const Vec3f p[3], const Vec3f n[3], const Vec2f uv[3],
                                           float b1, float b2, const Vec3f& dp_dx,
-                                          const Vec3f& dp_dy, bool flip) {
+                                          const Vec3f& dp_dy, Facing facing) {
     SurfaceDifferential s;
     const Vec3f e1 = p[1] - p[0];
     const Vec3f e2 = p[2] - p[0];
@@ -133,7 +133,7 @@ SurfaceDifferential triangle_differential(const Vec3f p[3], const Vec3f n[3], co
     const Vec3f grad2 = g.cross(e1) / g2;
     const float b0 = 1.0f - b1 - b2;
     const Vec3f normal = b0 * n[0] + b1 * n[1] + b2 * n[2];
-    const float sign = flip ? -1.0f : 1.0f;
+    const float sign = facing == Facing::Back ? -1.0f : 1.0f;
     const auto one = [&](const Vec3f& dp, Vec3f& dn_out, Vec2f& duv_out) {
         const float db1 = grad1.dot(dp);
         const float db2 = grad2.dot(dp);

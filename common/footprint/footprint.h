@@ -88,17 +88,23 @@ inline Vec3f normalised_derivative(const Vec3f& n, const Vec3f& dn) {
     return RayDifferential::unit_derivative(n, dn);
 }
 
+/// Which side of a surface a ray meets.
+enum class Facing : std::uint8_t {
+    Front,  ///< The side the interpolated normal points to.
+    Back,
+};
+
 /// Surface differential of a triangle with world-space vertices p[3] (only their differences
 /// are read, so any common translation may be left out — better so far from the origin),
 /// unnormalised vertex
 /// normals n[3] (world space) and uvs uv[3], for a hit at barycentric (b1, b2) whose position
 /// differentials are dp_dx, dp_dy: barycentric coordinates as linear functions of position
-/// (the planes of §3.3), so dN and dT are exact for the interpolation. `flip` negates the
-/// normal derivatives with the normal (a ray from the back side). A degenerate triangle
-/// yields zero derivatives.
+/// (the planes of §3.3), so dN and dT are exact for the interpolation. Seen from the back,
+/// the normal derivatives are negated with the normal. A degenerate triangle yields zero
+/// derivatives.
 SurfaceDifferential triangle_differential(const Vec3f p[3], const Vec3f n[3], const Vec2f uv[3],
                                           float b1, float b2, const Vec3f& dp_dx,
-                                          const Vec3f& dp_dy, bool flip);
+                                          const Vec3f& dp_dy, Facing facing);
 
 /// Eigen-decomposition of the symmetric 2×2 matrix [[a, b], [b, c]], stable in closed form:
 /// the larger eigenvalue from the sum, the smaller from the determinant, the axis from atan2.

@@ -49,9 +49,16 @@ bool valid_grid(std::int64_t grid) {
     return grid >= 1 && grid <= kMaxVoxelGridResolution;
 }
 
-/// A channel of one record per `count` items, or (when `optional`) no records at all.
+/// Whether a per-item channel may be left out.
+enum class Channel : std::uint8_t {
+    Required,  ///< One record per item.
+    Optional,  ///< One record per item, or none (every item has the default).
+};
+
+/// A channel of one record per `count` items, or (an optional channel) no records at all.
 void check_length(const std::filesystem::path& file, std::uint32_t tag, std::size_t size,
-                  std::size_t count, const char* items, bool optional) {
+                  std::size_t count, const char* items, Channel channel) {
+    const bool optional = channel == Channel::Optional;
     if (size == count || (optional && size == 0)) {
         return;
     }
@@ -62,16 +69,17 @@ void check_length(const std::filesystem::path& file, std::uint32_t tag, std::siz
 
 void check_lengths(const std::filesystem::path& file, const HierarchyView& a) {
     const std::size_t points = a.core.size();
-    check_length(file, kOffset, a.offset.size(), points, "point", false);
-    check_length(file, kDiffuse, a.diffuse.size(), points, "point", false);
-    check_length(file, kSpecular, a.specular.size(), points, "point", true);
-    check_length(file, kMirror, a.mirror.size(), points, "point", true);
-    check_length(file, kRefraction, a.refraction.size(), points, "point", true);
+    check_length(file, kOffset, a.offset.size(), points, "point", Channel::Required);
+    check_length(file, kDiffuse, a.diffuse.size(), points, "point", Channel::Required);
+    check_length(file, kSpecular, a.specular.size(), points, "point", Channel::Optional);
+    check_length(file, kMirror, a.mirror.size(), points, "point", Channel::Optional);
+    check_length(file, kRefraction, a.refraction.size(), points, "point", Channel::Optional);
     check_length(file, kNormals, a.vertex_normals.size(), a.vertex_positions.size(), "vertex",
-                 false);
-    check_length(file, kUvs, a.vertex_uvs.size(), a.vertex_positions.size(), "vertex", true);
+                 Channel::Required);
+    check_length(file, kUvs, a.vertex_uvs.size(), a.vertex_positions.size(), "vertex",
+                 Channel::Optional);
     check_length(file, kMaterials, a.triangle_materials.size(), a.triangles.size(), "triangle",
-                 false);
+                 Channel::Required);
 }
 
 bool finite3(const std::array<float, 3>& v) {

@@ -1,5 +1,5 @@
 """The headline ratios of mrt-compare comparisons (results.json's "headline", computed by
-trace/compare/headline_ratios.cpp from runs of one invocation) as markdown, beside the figures the
+trace/results/headline_ratios.cpp from runs of one invocation) as markdown, beside the figures the
 paper reports for them: one table per comparison (mrtrace.page), and a summary of several
 comparisons for the index (mrtrace.index):
 

@@ -16,7 +16,7 @@ from .headline import summary_table
 from .results import ResultsError, run_reporting_errors
 
 # What every comparison page's figures mean; mrt-compare computes them
-# (trace/compare/derived_figures.h, headline_ratios.h).
+# (trace/results/derived_figures.h, headline_ratios.h).
 READING = """\
 Each comparison's page shows the error of every run against the reference plotted against its
 render time, the runs' images and error images side by side, and these figures, all computed by

@@ -1,5 +1,5 @@
 """Plots image error against render time from mrt-compare's DIR/results.json: one curve per
-method, as mrt-compare grouped the runs ("derived"/"curves", trace/compare/derived_figures.h):
+method, as mrt-compare grouped the runs ("derived"/"curves", trace/results/derived_figures.h):
 a curve's kept runs joined by lines, its dominated runs (no faster than another of the curve
 and no more accurate) hollow. The baseline's time and RMSE are lines, and where each other
 curve stands at them — mrt-compare's equal-time RMSE and time to reach the baseline's RMSE —

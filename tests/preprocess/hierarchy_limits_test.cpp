@@ -36,7 +36,7 @@ Scene floor_and(Mesh mesh, const Affine3f& transform) {
 std::string refusal(const Scene& scene, const PointOctreeOptions& options = {}) {
     const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
     try {
-        build_scene_hierarchy(scene, nullptr, options, false);
+        build_scene_hierarchy(scene, nullptr, options);
     } catch (const Error& e) {
         return e.what();
     }
@@ -51,7 +51,7 @@ TEST(HierarchyLimits, ASphereStretchedTo1e30BuildsFiniteNodesThatCoverIt) {
     const Affine3f stretch =
         Affine3f(Eigen::Translation3f(0.0f, 1.0f, 0.0f)) * Eigen::Scaling(1e30f, 1.0f, 1.0f);
     const Scene scene = floor_and(make_sphere(1.0f, 16, 8, 0), stretch);
-    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, false);
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {});
     for (const SceneObject& o : h.objects) {
         for (const OctreeNode& node : o.tree.nodes) {
             EXPECT_TRUE(finite(node.origin) && std::isfinite(node.side) && node.side > 0.0f);

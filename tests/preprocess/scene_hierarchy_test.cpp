@@ -145,7 +145,7 @@ double worst_coverage(const OctreeNode& node, int grid, const std::vector<Vec3f>
 
 TEST(SceneHierarchy, GroupPointsCoverEveryInstanceBelowWithinTheVoxelDiagonal) {
     const Scene scene = plant_field(3, false);
-    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, false);
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {});
     ASSERT_EQ(h.objects.size(), 5u);  // two plants, the ground, the tile, the world
     EXPECT_EQ(h.objects[h.world].kind, SceneObject::Kind::Group);
     std::mt19937_64 rng(5);
@@ -173,7 +173,7 @@ TEST(SceneHierarchy, GroupPointsCoverEveryInstanceBelowWithinTheVoxelDiagonal) {
 
 TEST(SceneHierarchy, GroupPointsPrefilterAUniformMaterialExactly) {
     const Scene scene = plant_field(2, true);
-    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, false);
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {});
     std::size_t points = 0;
     for (const SceneObject& o : h.objects) {
         if (o.kind != SceneObject::Kind::Group) {
@@ -244,8 +244,8 @@ Rgb colour_near(const std::vector<ColourSample>& surface, const Vec3f& x, float 
 
 TEST(SceneHierarchy, InstancedAndFlattenedRootsDescribeTheSameSurface) {
     const Scene scene = plant_field(3, false);
-    const SceneHierarchy instanced = build_scene_hierarchy(scene, nullptr, {}, false);
-    const SceneHierarchy flat = build_scene_hierarchy(scene, nullptr, {}, true);
+    const SceneHierarchy instanced = build_scene_hierarchy(scene, nullptr, {});
+    const SceneHierarchy flat = build_scene_hierarchy(scene, nullptr, {}, Instancing::Flatten);
     ASSERT_EQ(flat.objects.size(), 1u);
     EXPECT_EQ(flat.objects[0].mesh->triangles.size(), scene.instanced_triangle_count());
     const OctreeNode& a = instanced.objects[instanced.world].tree.nodes[0];
@@ -294,7 +294,7 @@ TEST(SceneHierarchy, FileIsByteIdenticalForAnyThreadCount) {
     const auto packed = [&](int threads) {
         const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                                         static_cast<std::size_t>(threads));
-        const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, false);
+        const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {});
         return pack_hierarchy(h, scene.materials, "{}", "{}");
     };
     const HierarchyData one = packed(1);
@@ -314,22 +314,25 @@ TEST(SceneHierarchy, FileIsByteIdenticalForAnyThreadCount) {
 
 TEST(SceneHierarchy, ProgressReachesItsTotalExactly) {
     const Scene scene = plant_field(2, false);
-    for (const bool flatten : {false, true}) {
-        const std::uint64_t total = hierarchy_progress_total(scene, flatten);
+    for (const Instancing instancing : {Instancing::Keep, Instancing::Flatten}) {
+        const std::uint64_t total = hierarchy_progress_total(scene, instancing);
         Progress progress("test", total, true);
-        build_scene_hierarchy(scene, nullptr, {}, flatten, &progress);
-        EXPECT_EQ(progress.done(), total) << (flatten ? "flattened" : "instanced");
+        build_scene_hierarchy(scene, nullptr, {}, instancing, &progress);
+        EXPECT_EQ(progress.done(), total)
+            << (instancing == Instancing::Flatten ? "flattened" : "instanced");
     }
     // Instanced: the unique triangles and the tile's and the world's instances.
-    EXPECT_EQ(hierarchy_progress_total(scene, false), scene.unique_triangle_count() + 10 + 4);
+    EXPECT_EQ(hierarchy_progress_total(scene, Instancing::Keep),
+              scene.unique_triangle_count() + 10 + 4);
 }
 
 TEST(SceneHierarchy, StoresUniqueGeometryOnce) {
     const Scene scene = plant_field(3, false);
-    const HierarchyData instanced = pack_hierarchy(build_scene_hierarchy(scene, nullptr, {}, false),
-                                                   scene.materials, "{}", "{}");
-    const HierarchyData flat = pack_hierarchy(build_scene_hierarchy(scene, nullptr, {}, true),
-                                              scene.materials, "{}", "{}");
+    const HierarchyData instanced =
+        pack_hierarchy(build_scene_hierarchy(scene, nullptr, {}), scene.materials, "{}", "{}");
+    const HierarchyData flat =
+        pack_hierarchy(build_scene_hierarchy(scene, nullptr, {}, Instancing::Flatten),
+                       scene.materials, "{}", "{}");
     EXPECT_EQ(instanced.triangles.size(), scene.unique_triangle_count());
     EXPECT_EQ(flat.triangles.size(), scene.instanced_triangle_count());
     EXPECT_EQ(instanced.instances.size(), 10u + 9u);  // plants and ground, tiles of the world
@@ -360,7 +363,7 @@ Scene piled_spheres(int places, int copies) {
 HierarchyWork work_of(const Scene& scene) {
     PointOctreeOptions options;
     options.oversampling = 16;  // the work's growth, not its amount, is checked
-    return build_scene_hierarchy(scene, nullptr, options, false).work;
+    return build_scene_hierarchy(scene, nullptr, options).work;
 }
 
 // Overlapping instances made every level of the instance tree (halves of the pile, all the
@@ -402,7 +405,7 @@ TEST(SceneHierarchy, ThinnedPilesStillCoverTheirSurfaceAndAverageExactly) {
     scene.materials[0].diffuse = Rgb(0.3f, 0.5f, 0.7f);
     PointOctreeOptions options;
     options.oversampling = 16;
-    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, options, false);
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, options);
     EXPECT_GT(h.work.thinned_nodes, 0u);
     const SceneObject& world = h.objects[h.world];
     std::mt19937_64 rng(9);
@@ -429,7 +432,7 @@ TEST(SceneHierarchy, ThinnedPilesStillCoverTheirSurfaceAndAverageExactly) {
 TEST(SceneHierarchy, ThinnedIdenticalCopiesKeepTheirAreaAndEveryPointItsSamples) {
     constexpr int kCopies = 256;
     const Scene scene = piled_spheres(1, kCopies);
-    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, false);
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {});
     EXPECT_GT(h.work.thinned_nodes, 0u);
     const OctreeNode& root = h.objects[h.world].tree.nodes[0];
     ASSERT_FALSE(root.points.empty());

@@ -37,7 +37,7 @@ RUNS = [
     ("cone", "cone", 0.5, 0.04),
 ]
 
-# What mrt-compare writes for RUNS (trace/compare/derived_figures.h).
+# What mrt-compare writes for RUNS (trace/results/derived_figures.h).
 DERIVED = {
     "time": "render_seconds",
     "baseline": {"run": 6, "method": "cone", "curve": "cone", "spec": "cone", "seconds": 0.5,

@@ -21,6 +21,11 @@
 
 namespace mrt::testing {
 
+/// Whether `part` occurs in `text`.
+inline bool contains(const std::string& text, const std::string& part) {
+    return text.find(part) != std::string::npos;
+}
+
 /// The message of the mrt::Error that `f()` throws, or "(no error thrown)".
 template <typename F>
 std::string error_message(const F& f) {

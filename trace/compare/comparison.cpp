@@ -4,12 +4,13 @@
 #include "common/image/image_metrics.h"
 #include "common/system/error.h"
 #include "trace/compare/child_process.h"
-#include "trace/compare/comparison_report.h"
-#include "trace/compare/equal_error.h"
-#include "trace/compare/headline_ratios.h"
-#include "trace/compare/method_spec.h"
 #include "trace/compare/montage.h"
+#include "trace/compare/reference_cache.h"
 #include "trace/render/method.h"
+#include "trace/results/comparison_report.h"
+#include "trace/results/equal_error.h"
+#include "trace/results/headline_ratios.h"
+#include "trace/results/method_spec.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -456,9 +457,7 @@ class ComparisonRun {
 
         const fs::path stats_file = dir / run.stats;
         const json stats = read_stats(stats_file);
-        run.method = stats.contains("method") && stats["method"].is_string()
-                         ? stats["method"].get<std::string>()
-                         : spec.method;
+        run.method = spec.method;
         run.render_seconds = stats_number(stats_file, stats, "render_seconds");
         run.total_seconds = stats_number(stats_file, stats, "load_seconds") +
                             stats_number(stats_file, stats, "build_seconds") + run.render_seconds;
@@ -527,12 +526,6 @@ fs::path find_trace_executable() {
                     "mrt-compare; set MRT_TRACE to use another)");
     }
     return exe;
-}
-
-std::ostream& operator<<(std::ostream& os, const RunResult& r) {
-    return os << "RunResult{" << r.spec << ", render " << r.render_seconds << " s, total "
-              << r.total_seconds << " s, wall " << r.wall_seconds << " s, " << r.rays
-              << " rays, RMSE " << r.rmse << ", PSNR " << r.psnr << ", SSIM " << r.ssim << "}";
 }
 
 }  // namespace mrt

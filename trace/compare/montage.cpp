@@ -29,6 +29,12 @@ constexpr int kLabelPadding = 3;
 constexpr const char* kEllipsis = "\xE2\x80\xA6";
 constexpr const char* kAsciiEllipsis = "...";
 
+/// How label text reaches OpenImageIO's text drawing.
+enum class Glyphs : std::uint8_t {
+    Ascii,    ///< Non-ASCII text replaced (an OpenImageIO that garbles UTF-8).
+    Unicode,  ///< As written.
+};
+
 // ---------------------------------------------------------------------------------------------
 // Scaling
 
@@ -246,9 +252,9 @@ std::string ascii_text(const std::string& text) {
 
 /// The label as one line that OpenImageIO draws faithfully: control characters (newline would
 /// start a second line below the strip, tab has no glyph) become spaces, surrounding spaces are
-/// dropped, and non-ASCII text is made ASCII unless `unicode`.
-std::string drawable_label(const std::string& label, bool unicode) {
-    std::string text = unicode ? label : ascii_text(label);
+/// dropped, and non-ASCII text is made ASCII unless the font is drawn as Unicode.
+std::string drawable_label(const std::string& label, Glyphs glyphs) {
+    std::string text = glyphs == Glyphs::Unicode ? label : ascii_text(label);
     std::replace_if(
         text.begin(), text.end(),
         [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7F; }, ' ');
@@ -379,7 +385,7 @@ Image make_montage(const std::vector<MontageCell>& cells, int columns,
     }
 
     const bool any_label = std::any_of(cells.begin(), cells.end(), [](const MontageCell& c) {
-        return !drawable_label(c.label, true).empty();
+        return !drawable_label(c.label, Glyphs::Unicode).empty();
     });
     if (!any_label) {
         return montage;
@@ -393,14 +399,14 @@ Image make_montage(const std::vector<MontageCell>& cells, int columns,
         }
         return montage;
     }
-    const bool unicode = oiio_decodes_utf8();
-    const std::string ellipsis = unicode ? kEllipsis : kAsciiEllipsis;
+    const Glyphs glyphs = oiio_decodes_utf8() ? Glyphs::Unicode : Glyphs::Ascii;
+    const std::string ellipsis = glyphs == Glyphs::Unicode ? kEllipsis : kAsciiEllipsis;
     const int baseline = label_baseline(*font);
     const int max_text_width = cell_width - 2 * kLabelPadding;
     std::vector<std::size_t> failed;
     for (std::size_t i = 0; i < cells.size(); ++i) {
         const std::string text =
-            fitted_label(drawable_label(cells[i].label, unicode), *font, max_text_width, ellipsis);
+            fitted_label(drawable_label(cells[i].label, glyphs), *font, max_text_width, ellipsis);
         if (!text.empty() && !draw_label(montage, layout.x[i], layout.label_y[i], cell_width,
                                          baseline, text, *font)) {
             failed.push_back(i);

@@ -135,10 +135,4 @@ std::ostream& operator<<(std::ostream& os, const ReferenceKey& k) {
     return os << "ReferenceKey" << key_json(k).dump();
 }
 
-std::ostream& operator<<(std::ostream& os, const ReferenceInfo& i) {
-    return os << "ReferenceInfo{spp " << optional_json(i.spp).dump() << ", seconds "
-              << optional_json(i.seconds).dump() << ", std_error "
-              << optional_json(i.std_error).dump() << "}";
-}
-
 }  // namespace mrt

@@ -9,6 +9,8 @@
 // The key names everything the reference image depends on that mrt-compare controls; it does
 // not cover files the scene refers to (meshes, textures) or the mrt-trace build.
 
+#include "trace/results/results.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <iosfwd>
@@ -29,13 +31,6 @@ struct ReferenceKey {
     std::uint64_t seed = 0;      ///< Seed of the sample patterns.
 
     bool operator==(const ReferenceKey&) const = default;
-};
-
-/// What is known about a reference besides its pixels (each empty when unknown).
-struct ReferenceInfo {
-    std::optional<int> spp;           ///< Samples per pixel.
-    std::optional<double> seconds;    ///< Render time of the reference, in seconds.
-    std::optional<double> std_error;  ///< mrt-trace's estimate of the reference's standard error.
 };
 
 /// 64-bit FNV-1a of the file's bytes as 16 hex digits: a change detector, not a digest that
@@ -60,6 +55,5 @@ void write_reference_record(const std::filesystem::path& record, const Reference
 ReferenceInfo read_reference_info(const std::filesystem::path& record);
 
 std::ostream& operator<<(std::ostream& os, const ReferenceKey& k);
-std::ostream& operator<<(std::ostream& os, const ReferenceInfo& i);
 
 }  // namespace mrt

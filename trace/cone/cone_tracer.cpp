@@ -317,13 +317,13 @@ class ConeTracer {
             // surface: the critical direction.
             const Vec3f direction = fold_to_side(
                 refract(d, ns, eta).value_or(Vec3f((eta * d + eta * cos_i * ns).normalized())), ns,
-                false);
+                Side::Below);
             const RayDifferential rd = hit.footprint.refract(d, ns, dn_dx, dn_dy, eta);
             return secondary(hit.position, direction, rd, ns, s.roughness, hit.half_interval, depth,
                              branch_weight, work);
         };
         const auto reflect_branch = [&](float branch_weight) {
-            const Vec3f direction = fold_to_side(reflect(d, ns), ns, true);
+            const Vec3f direction = fold_to_side(reflect(d, ns), ns, Side::Above);
             const RayDifferential rd = hit.footprint.reflect(d, ns, dn_dx, dn_dy);
             return secondary(hit.position, direction, rd, ns, s.roughness, hit.half_interval, depth,
                              branch_weight, work);

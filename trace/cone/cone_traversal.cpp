@@ -159,7 +159,7 @@ class Walk {
     void object(ConeSpace& space, std::uint32_t index, float weight) {
         const HierarchyObject& object = m_view.objects[index];
         space.object = index;
-        visit(space, object.first_node, weight, false);
+        visit(space, object.first_node, weight, Level::ByFootprint);
     }
 
   private:
@@ -209,11 +209,18 @@ class Walk {
         return true;
     }
 
-    /// Steps 2 and 3 at one node. `finer`: the node stands one level below its parent's
-    /// points in their level blend, so its own points are used whatever the footprint, or where
-    /// it has none (a mesh leaf, an instance-tree node over one instance) everything below it
-    /// at whatever level the cone chooses there.
-    void visit(const ConeSpace& space, std::uint32_t index, float weight, bool finer) {
+    /// How a node's level is chosen.
+    enum class Level : std::uint8_t {
+        ByFootprint,  ///< Its points when they are as fine as the footprint, else its children.
+        /// The node stands one level below its parent's points in their level blend, so its
+        /// own points are used whatever the footprint, or where it has none (a mesh leaf, an
+        /// instance-tree node over one instance) everything below it at whatever level the
+        /// cone chooses there.
+        Finer,
+    };
+
+    /// Steps 2 and 3 at one node.
+    void visit(const ConeSpace& space, std::uint32_t index, float weight, Level level) {
         const HierarchyNode& node = m_view.nodes[index];
         Look l;
         if (!look(space, node, l)) {
@@ -221,7 +228,7 @@ class Walk {
         }
         triangles(space, index, l, weight);
         if (m_options.points && node.point_count > 0) {
-            if (finer) {
+            if (level == Level::Finer) {
                 points(space, index, l, weight);
                 return;
             }
@@ -233,17 +240,17 @@ class Walk {
                                          : 1.0f;
                 points(space, index, l, weight * coarse);
                 if (coarse < 1.0f) {
-                    below(space, node, weight * (1.0f - coarse), true);
+                    below(space, node, weight * (1.0f - coarse), Level::Finer);
                 }
                 return;
             }
         }
-        below(space, node, weight, false);
+        below(space, node, weight, Level::ByFootprint);
     }
 
     /// The children, nearest first (early termination culls more behind a near surface), and
     /// the instances a group node holds.
-    void below(const ConeSpace& space, const HierarchyNode& node, float weight, bool finer) {
+    void below(const ConeSpace& space, const HierarchyNode& node, float weight, Level level) {
         if (node.child_mask != 0) {
             std::array<std::pair<float, std::uint32_t>, 8> order;
             int count = 0;
@@ -262,7 +269,7 @@ class Walk {
             }
             for (int i = 0; i < count; ++i) {
                 const std::uint32_t child = order[static_cast<std::size_t>(i)].second;
-                visit(space, child, weight, finer);
+                visit(space, child, weight, level);
             }
         }
         for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
@@ -666,7 +673,7 @@ class Walk {
             const RayDifferential on_plane =
                 footprint.transfer(space.ray.direction, 0.0f, geometric);
             const SurfaceDifferential sd = triangle_differential(
-                positions, n, uv, hit.b1, hit.b2, on_plane.dp_dx, on_plane.dp_dy, false);
+                positions, n, uv, hit.b1, hit.b2, on_plane.dp_dx, on_plane.dp_dy, Facing::Front);
             s.diffuse = m_geometry.textures().diffuse(material, at, {sd.duv_dx, sd.duv_dy});
         } else {
             s.diffuse = material.diffuse;
@@ -676,7 +683,7 @@ class Walk {
             Vec3f t2;
             orthonormal_basis(geometric, t1, t2);
             const SurfaceDifferential sd =
-                triangle_differential(positions, n, uv, hit.b1, hit.b2, t1, t2, false);
+                triangle_differential(positions, n, uv, hit.b1, hit.b2, t1, t2, Facing::Front);
             const Mat3f shape = sd.dn_dx * t1.transpose() + sd.dn_dy * t2.transpose();
             s.shape = shape_to_world(shape, normal, space);
         }

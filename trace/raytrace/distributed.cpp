@@ -165,13 +165,13 @@ class DistributedRenderer {
 /// the target standard error, between what it has and spp_max.
 std::vector<int> second_pass_counts(const std::vector<double>& variance,
                                     const std::vector<PixelMoments>& moments,
-                                    const RenderOptions& options) {
-    const double target = static_cast<double>(options.target_error);
+                                    const DistributedOptions& sampling) {
+    const double target = static_cast<double>(sampling.target_error);
     std::vector<int> counts(variance.size(), 0);
     for (std::size_t i = 0; i < variance.size(); ++i) {
         const double wanted = std::ceil(variance[i] / (target * target));
         const double total =
-            std::clamp(wanted, static_cast<double>(moments[i].count), double(options.spp_max));
+            std::clamp(wanted, static_cast<double>(moments[i].count), double(sampling.spp_max));
         counts[i] = std::max(0, static_cast<int>(total) - moments[i].count);
     }
     return counts;
@@ -183,12 +183,13 @@ std::vector<int> second_pass_counts(const std::vector<double>& variance,
 /// expected total is the budget.
 std::vector<int> refinement_counts(const std::vector<double>& variance,
                                    const std::vector<PixelMoments>& moments,
-                                   const RenderOptions& options, double budget, int pass) {
+                                   const DistributedOptions& sampling, std::uint64_t seed,
+                                   double budget, int pass) {
     std::vector<double> gain(variance.size(), 0.0);
     double total_gain = 0.0;
     for (std::size_t i = 0; i < variance.size(); ++i) {
         const int n = moments[i].count;
-        if (n > 0 && n < options.spp_max) {
+        if (n > 0 && n < sampling.spp_max) {
             gain[i] = variance[i] / (static_cast<double>(n) * static_cast<double>(n));
             total_gain += gain[i];
         }
@@ -203,12 +204,12 @@ std::vector<int> refinement_counts(const std::vector<double>& variance,
         }
         const double share = budget * gain[i] / total_gain;
         const double coin =
-            static_cast<double>(
-                mix64(options.seed ^ mix64((static_cast<std::uint64_t>(pass) << 40) ^ i)) >> 11) *
+            static_cast<double>(mix64(seed ^ mix64((static_cast<std::uint64_t>(pass) << 40) ^ i)) >>
+                                11) *
             0x1.0p-53;
         const int n = moments[i].count;
         const int wanted = static_cast<int>(std::min(std::floor(share + coin), 1e9));
-        counts[i] = std::min({wanted, n, options.spp_max - n});
+        counts[i] = std::min({wanted, n, sampling.spp_max - n});
     }
     return counts;
 }
@@ -221,13 +222,15 @@ int reference_batch_count(int spp) {
 }  // namespace
 
 RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
-                                const RenderOptions& options) {
+                                const RenderOptions& options,
+                                const DistributedOptions& distributed) {
     const TextureSampler textures(scene, options.texture_filter);
-    return render_distributed(scene, bvh, textures, options);
+    return render_distributed(scene, bvh, textures, options, distributed);
 }
 
 RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
-                                const TextureSampler& textures, const RenderOptions& options) {
+                                const TextureSampler& textures, const RenderOptions& options,
+                                const DistributedOptions& distributed) {
     const auto start = Clock::now();
     DistributedRenderer renderer(scene, bvh, textures, options);
     RenderOutput out;
@@ -243,10 +246,10 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
         return samples;
     };
 
-    if (options.reference) {
+    if (distributed.sampling == DistributedSampling::Reference) {
         // Independent stratified batches: their spread measures the reference's own error.
-        const int batches = reference_batch_count(options.spp);
-        const int per_batch = (std::max(1, options.spp) + batches - 1) / batches;
+        const int batches = reference_batch_count(distributed.spp);
+        const int per_batch = (std::max(1, distributed.spp) + batches - 1) / batches;
         const std::size_t values = renderer.window_pixel_count() * 3;
         std::vector<double> sum(values, 0.0);
         std::vector<double> sum_squares(values, 0.0);
@@ -282,20 +285,22 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
         return out;
     }
 
-    out.spp = options.fixed_spp ? std::max(1, options.spp) : options.spp_max;
-    if (options.fixed_spp) {
-        timed_pass(uniform, std::max(1, options.spp), std::string(to_string(Method::Distributed)));
+    const bool fixed = distributed.sampling == DistributedSampling::Fixed;
+    out.spp = fixed ? std::max(1, distributed.spp) : distributed.spp_max;
+    if (fixed) {
+        timed_pass(uniform, std::max(1, distributed.spp),
+                   std::string(to_string(Method::Distributed)));
     } else {
-        const int initial = std::max(1, options.spp_initial);
+        const int initial = std::max(1, distributed.spp_initial);
         const std::uint64_t first =
             timed_pass(uniform, initial, "distributed pass 1", kNeighbourhood / 2);
-        if (options.time_budget > 0.0) {
+        if (distributed.time_budget > 0.0) {
             // A time budget is the window's: it is spent where the window's pixels need it.
             const double pass_size = static_cast<double>(renderer.window_pixel_count()) *
                                      static_cast<double>(std::max(2, initial));
             double seconds_per_sample = out.last_pass_seconds / static_cast<double>(first);
             while (true) {
-                const double remaining = options.time_budget - seconds_since(start);
+                const double remaining = distributed.time_budget - seconds_since(start);
                 // A pass no bigger than what the measured speed says fits in the time left;
                 // tiny passes are not worth their per-pass cost (variance, film merge).
                 const double budget = std::min(pass_size, 0.9 * remaining / seconds_per_sample);
@@ -307,7 +312,7 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                 const auto pass_start = Clock::now();
                 const std::vector<int> counts =
                     refinement_counts(renderer.neighbourhood_variance(), renderer.moments(),
-                                      options, budget, renderer.passes());
+                                      distributed, options.seed, budget, renderer.passes());
                 const std::uint64_t samples = timed_pass(
                     counts, 0, "distributed pass " + std::to_string(renderer.passes() + 1),
                     kNeighbourhood / 2);
@@ -317,8 +322,8 @@ RenderOutput render_distributed(const Scene& scene, const SceneBvh& bvh,
                 seconds_per_sample = seconds_since(pass_start) / static_cast<double>(samples);
             }
         } else {
-            const std::vector<int> counts =
-                second_pass_counts(renderer.neighbourhood_variance(), renderer.moments(), options);
+            const std::vector<int> counts = second_pass_counts(renderer.neighbourhood_variance(),
+                                                               renderer.moments(), distributed);
             timed_pass(counts, 0, "distributed pass 2");
         }
     }

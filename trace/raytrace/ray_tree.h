@@ -265,7 +265,7 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     };
     const auto refracted = [&](float branch_weight) {
         const Vec3f direction = fold_to_side(sampling.spread(*transmitted, material.roughness),
-                                             sp.geometric_normal, false);
+                                             sp.geometric_normal, Side::Below);
         return branch(direction, branch_weight, [&] {
             return at_hit.refract(d, sp.shading_normal, surface.dn_dx, surface.dn_dy, eta);
         });
@@ -273,7 +273,7 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     const auto reflected = [&](float branch_weight) {
         const Mirror mirror = mirror_at(d, sp, surface);
         const Vec3f direction = fold_to_side(sampling.spread(mirror.direction, material.roughness),
-                                             sp.geometric_normal, true);
+                                             sp.geometric_normal, Side::Above);
         return branch(direction, branch_weight,
                       [&] { return at_hit.reflect(d, mirror.normal, mirror.dn_dx, mirror.dn_dy); });
     };

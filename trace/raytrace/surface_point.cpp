@@ -69,7 +69,8 @@ SurfaceDifferential make_surface_differential(const Scene& scene, const SceneHit
         n[i] = sp.normal_matrix * mesh.normals[tri[static_cast<std::size_t>(i)]];
         uv[i] = mesh.has_uvs() ? mesh.uvs[tri[static_cast<std::size_t>(i)]] : Vec2f::Zero();
     }
-    return triangle_differential(p, n, uv, hit.b1, hit.b2, dp_dx, dp_dy, !sp.entering);
+    return triangle_differential(p, n, uv, hit.b1, hit.b2, dp_dx, dp_dy,
+                                 sp.entering ? Facing::Front : Facing::Back);
 }
 
 }  // namespace mrt

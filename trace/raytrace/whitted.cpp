@@ -9,17 +9,18 @@
 
 namespace mrt {
 
-RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options) {
+RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options,
+                            const WhittedOptions& whitted) {
     const TextureSampler textures(scene, options.texture_filter);
-    return render_whitted(scene, bvh, textures, options);
+    return render_whitted(scene, bvh, textures, options, whitted);
 }
 
 RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures,
-                            const RenderOptions& options) {
+                            const RenderOptions& options, const WhittedOptions& whitted) {
     const CameraRays camera(scene.camera, options.width, options.height);
     const int max_depth = options.max_depth >= 0 ? options.max_depth : scene.max_depth;
     const WhittedTracer tracer(scene, bvh, textures, max_depth, options.differentials);
-    const int spp = std::max(1, options.spp);
+    const int spp = std::max(1, whitted.spp);
     const float scale = footprint_scale(spp);
     Film film(options.width, options.height, options.filter, options.crop);
     const auto start = std::chrono::steady_clock::now();

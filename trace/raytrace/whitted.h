@@ -14,13 +14,21 @@ namespace mrt {
 
 using WhittedTracer = RayTree<CentreSampling>;
 
+/// What the Whitted tracer reads beyond RenderOptions.
+struct WhittedOptions {
+    /// Rays per pixel: 1 traces the pixel centre; more trace a jittered grid (seeded by
+    /// RenderOptions::seed), the conventional supersampled tracer.
+    int spp = 1;
+};
+
 /// Renders the scene's camera with the Whitted tracer, samples reconstructed with
 /// options.filter, textures from `textures` (built for options.texture_filter: preparing the
 /// mip-mapped textures is load work, not render work).
 RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const TextureSampler& textures,
-                            const RenderOptions& options);
+                            const RenderOptions& options, const WhittedOptions& whitted = {});
 
 /// The same, preparing the textures itself.
-RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options);
+RenderOutput render_whitted(const Scene& scene, const SceneBvh& bvh, const RenderOptions& options,
+                            const WhittedOptions& whitted = {});
 
 }  // namespace mrt

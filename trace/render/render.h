@@ -63,6 +63,9 @@ struct PixelWindow {
     bool operator==(const PixelWindow&) const = default;
 };
 
+/// What every tracer reads. What only one reads is in its own options: WhittedOptions
+/// (trace/raytrace/whitted.h), DistributedOptions (trace/raytrace/distributed.h), ConeOptions
+/// (trace/cone/cone_tracer.h); which command-line options feed which is trace/render/method.h.
 struct RenderOptions {
     int width = 0;   ///< Frame width in pixels.
     int height = 0;  ///< Frame height in pixels.
@@ -71,7 +74,6 @@ struct RenderOptions {
     /// the pixels around it whose samples the filter, or the adaptive pass's neighbourhood,
     /// reaches are traced too). Empty: the whole frame.
     std::optional<PixelWindow> crop;
-    int spp = 1;             ///< Samples per pixel (whitted: 1 = the pixel centre).
     std::uint64_t seed = 0;  ///< Seed of every random stream.
     int threads = 0;         ///< Worker threads; 0 = all hardware threads.
     int max_depth = -1;      ///< Reflection/refraction depth; −1 = the scene's.
@@ -80,14 +82,6 @@ struct RenderOptions {
     /// How textures are filtered (Igehy §4); all but None make rays carry differentials.
     TextureFilter texture_filter = TextureFilter::Anisotropic;
     Differentials differentials = Differentials::WhenRead;
-
-    // The distributed tracer (trace/raytrace/distributed.h).
-    bool fixed_spp = false;       ///< One stratified batch of `spp` samples, no adaptation.
-    int spp_initial = 2;          ///< Pass 1: jittered samples in every pixel.
-    int spp_max = 16;             ///< Pass 2 and later: at most this many in any pixel.
-    float target_error = 0.005f;  ///< Pass 2 aims at this per-pixel standard error.
-    double time_budget = 0.0;     ///< Seconds; > 0: refine in passes until spent.
-    bool reference = false;       ///< Ground truth: `spp` samples in independent batches.
 };
 
 struct RenderOutput {

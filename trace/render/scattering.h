@@ -63,16 +63,21 @@ Rgb add_branches(Rgb local, float weight, const BranchWeights& branches, Refract
     return local;
 }
 
+/// The side of a surface a direction must leave on.
+enum class Side : std::uint8_t {
+    Above,  ///< The side the geometric normal points to (reflection).
+    Below,  ///< The other side (transmission).
+};
+
 /// A direction on the wrong side of the geometric surface (a glossy spread or an interpolated
 /// normal sending a reflection into the surface, or a transmission back out) is mirrored about
 /// the tangent plane: the energy stays with the branch instead of being lost or leaking.
-/// `above`: the direction must leave on the side the normal points to.
-inline Vec3f fold_to_side(const Vec3f& direction, const Vec3f& geometric_normal, bool above) {
-    const float side = direction.dot(geometric_normal);
-    if (above ? side > 0.0f : side < 0.0f) {
+inline Vec3f fold_to_side(const Vec3f& direction, const Vec3f& geometric_normal, Side side) {
+    const float along = direction.dot(geometric_normal);
+    if (side == Side::Above ? along > 0.0f : along < 0.0f) {
         return direction;
     }
-    return direction - 2.0f * side * geometric_normal;
+    return direction - 2.0f * along * geometric_normal;
 }
 
 }  // namespace mrt

@@ -4,7 +4,7 @@
 #include "common/cli/tool_main.h"
 #include "common/system/error.h"
 #include "trace/compare/comparison.h"
-#include "trace/compare/comparison_report.h"
+#include "trace/results/comparison_report.h"
 
 #include <unistd.h>
 #include <CLI/CLI.hpp>

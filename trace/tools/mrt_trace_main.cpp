@@ -158,6 +158,42 @@ void check_method_options(const CLI::App& app, const Arguments& args) {
     }
 }
 
+mrt::WhittedOptions whitted_options(const Arguments& args) {
+    mrt::WhittedOptions whitted;
+    whitted.spp = args.spp.value_or(1);
+    return whitted;
+}
+
+mrt::DistributedOptions distributed_options(const Arguments& args) {
+    using enum mrt::DistributedSampling;
+    mrt::DistributedOptions distributed;
+    distributed.sampling = args.reference ? Reference : args.spp ? Fixed : Adaptive;
+    distributed.spp = args.spp.value_or(args.reference ? kDefaultReferenceSpp : 1);
+    distributed.spp_initial = args.spp_initial;
+    // A time budget alone decides when to stop, unless a cap was asked for.
+    distributed.spp_max = args.spp_max.value_or(args.time_budget > 0.0 ? kMaxSpp : 16);
+    distributed.target_error = args.target_error;
+    distributed.time_budget = args.time_budget;
+    return distributed;
+}
+
+mrt::ConeOptions cone_options(const Arguments& args) {
+    mrt::ConeOptions cone;
+    cone.traversal.points = args.method == mrt::Method::Cone;
+    cone.traversal.blend_levels = !args.no_level_blend;
+    cone.traversal.node_frames = args.node_frames;
+    cone.traversal.cull_closed_back_faces = !args.keep_back_faces;
+    cone.traversal.triangle_weight = args.triangle_weight == "paper"
+                                         ? mrt::TriangleWeight::Paper
+                                         : mrt::TriangleWeight::Coverage;
+    cone.traversal.max_anisotropy = args.max_anisotropy;
+    cone.time_budget =
+        args.time_budget > 0.0
+            ? args.time_budget
+            : (args.method == mrt::Method::ConeClassic ? kClassicDefaultBudget : 0.0);
+    return cone;
+}
+
 int run(const Arguments& args) {
     mrt::check_image_output(args.output);
     if (!args.stats.empty()) {
@@ -192,14 +228,6 @@ int run(const Arguments& args) {
     options.filter = mrt::parse_pixel_filter(args.filter);
     options.texture_filter = mrt::parse_texture_filter(args.texture_filter);
     options.differentials = mrt::parse_differentials(args.differentials);
-    options.spp = args.spp.value_or(args.reference ? kDefaultReferenceSpp : 1);
-    options.fixed_spp = args.spp.has_value();
-    options.spp_initial = args.spp_initial;
-    // A time budget alone decides when to stop, unless a cap was asked for.
-    options.spp_max = args.spp_max.value_or(args.time_budget > 0.0 ? kMaxSpp : 16);
-    options.target_error = args.target_error;
-    options.time_budget = args.time_budget;
-    options.reference = args.reference;
     options.seed = args.seed;
     options.threads = args.threads;
     options.max_depth = args.max_depth.value_or(-1);
@@ -227,12 +255,11 @@ int run(const Arguments& args) {
                 scene.textures.empty() ? nullptr
                                        : std::make_unique<mrt::TextureSampler>(
                                              scene, mrt::TextureFilter::None, args.budgets);
-            mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene, false),
-                                   args.quiet);
+            mrt::Progress progress("hierarchy", mrt::hierarchy_progress_total(scene), args.quiet);
             mrt::PointOctreeOptions octree;
             octree.budgets = args.budgets;
-            const mrt::SceneHierarchy hierarchy =
-                mrt::build_scene_hierarchy(scene, prefilter.get(), octree, false, &progress);
+            const mrt::SceneHierarchy hierarchy = mrt::build_scene_hierarchy(
+                scene, prefilter.get(), octree, mrt::Instancing::Keep, &progress);
             progress.finish();
             built.emplace(mrt::pack_hierarchy(hierarchy, scene.materials, "{}", "{}"));
             geometry.emplace(built->view(), scene, textures);
@@ -247,33 +274,32 @@ int run(const Arguments& args) {
     std::optional<mrt::ConeRenderStats> cone_stats;
     const auto render_start = Clock::now();
     mrt::RenderOutput out;
-    if (mrt::is_cone(args.method)) {
-        mrt::ConeOptions cone;
-        cone.traversal.points = args.method == mrt::Method::Cone;
-        cone.traversal.blend_levels = !args.no_level_blend;
-        cone.traversal.node_frames = args.node_frames;
-        cone.traversal.cull_closed_back_faces = !args.keep_back_faces;
-        cone.traversal.triangle_weight = args.triangle_weight == "paper"
-                                             ? mrt::TriangleWeight::Paper
-                                             : mrt::TriangleWeight::Coverage;
-        cone.traversal.max_anisotropy = args.max_anisotropy;
-        cone.time_budget =
-            args.time_budget > 0.0
-                ? args.time_budget
-                : (args.method == mrt::Method::ConeClassic ? kClassicDefaultBudget : 0.0);
-        options.time_budget = cone.time_budget;
-        mrt::ConeRenderOutput result = mrt::render_cone(*geometry, options, cone);
-        out = std::move(result.render);
-        cone_stats = result.stats;
-    } else if (args.method == mrt::Method::Distributed) {
-        out = mrt::render_distributed(scene, *bvh, textures, options);
-    } else {
-        out = mrt::render_whitted(scene, *bvh, textures, options);
+    // The budget the render was given, for the stats: the distributed tracer's or the cone's.
+    double time_budget = 0.0;
+    switch (args.method) {
+        case mrt::Method::Whitted:
+            out = mrt::render_whitted(scene, *bvh, textures, options, whitted_options(args));
+            break;
+        case mrt::Method::Distributed: {
+            const mrt::DistributedOptions distributed = distributed_options(args);
+            time_budget = distributed.time_budget;
+            out = mrt::render_distributed(scene, *bvh, textures, options, distributed);
+            break;
+        }
+        case mrt::Method::Cone:
+        case mrt::Method::ConeClassic: {
+            const mrt::ConeOptions cone = cone_options(args);
+            time_budget = cone.time_budget;
+            mrt::ConeRenderOutput result = mrt::render_cone(*geometry, options, cone);
+            out = std::move(result.render);
+            cone_stats = result.stats;
+            break;
+        }
     }
     out.render_seconds = seconds_since(render_start);
     if (cone_stats && cone_stats->stopped && !args.quiet) {
         std::cerr << "mrt-trace: " << args.method << " stopped after its time budget of "
-                  << options.time_budget << " s with " << cone_stats->pixels_done << " of "
+                  << time_budget << " s with " << cone_stats->pixels_done << " of "
                   << cone_stats->pixels << " pixels done; the rest of the image is black\n";
     }
 
@@ -293,8 +319,8 @@ int run(const Arguments& args) {
         stats.differentials = mrt::to_string(options.differentials);
         stats.passes = out.passes;
         stats.last_pass_seconds = out.last_pass_seconds;
-        if (options.time_budget > 0.0) {
-            stats.time_budget = options.time_budget;
+        if (time_budget > 0.0) {
+            stats.time_budget = time_budget;
         }
         stats.samples = out.samples;
         stats.std_error = out.std_error;

@@ -233,7 +233,7 @@ struct InterpolatedTriangle {
             uvf[i] = uv[i].cast<float>();
         }
         return triangle_differential(pf, nf, uvf, static_cast<float>(b1), static_cast<float>(b2),
-                                     rd.dp_dx, rd.dp_dy, flip);
+                                     rd.dp_dx, rd.dp_dy, flip ? Facing::Back : Facing::Front);
     }
 };
 
@@ -395,7 +395,7 @@ TEST(RayDifferential, StiffCasesStayFiniteAndBounded) {
     const Vec3f n[3] = {Vec3f(0, 1, 0), Vec3f(0, 1, 0), Vec3f(0, 1, 0)};
     const Vec2f uv[3] = {Vec2f(0, 0), Vec2f(1, 0), Vec2f(0, 1)};
     const SurfaceDifferential s =
-        triangle_differential(p, n, uv, 0.3f, 0.3f, Vec3f(1, 0, 0), Vec3f(0, 0, 1), false);
+        triangle_differential(p, n, uv, 0.3f, 0.3f, Vec3f(1, 0, 0), Vec3f(0, 0, 1), Facing::Front);
     EXPECT_EQ(s.dn_dx, Vec3f::Zero());
     EXPECT_EQ(s.duv_dy, Vec2f::Zero());
     // A camera 1e5 units from the origin.

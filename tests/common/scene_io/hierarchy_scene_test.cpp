@@ -63,8 +63,8 @@ Scene nested_scene() {
 }
 
 /// The scene written to `path` as mrt-preprocess writes it, and loaded back by load_scene.
-Scene through_file(const Scene& scene, const fs::path& path, bool flatten) {
-    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, flatten);
+Scene through_file(const Scene& scene, const fs::path& path, Instancing instancing) {
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, instancing);
     write_hierarchy_file(path, pack_hierarchy(h, scene.materials, scene_record_json(scene), "{}"));
     return load_scene(path);
 }
@@ -100,7 +100,7 @@ void expect_same_world(const Scene& read, const Scene& original, bool exact_orde
 TEST(HierarchyScene, GivesBackTheSettingsExactlyAndTheGeometryInstancedAsWritten) {
     const testing::ScratchDirectory scratch("mrt_hierarchy_scene");
     for (const Scene& original : {load_scene(default_scene()), nested_scene()}) {
-        const Scene read = through_file(original, scratch.path() / "scene.mrh", false);
+        const Scene read = through_file(original, scratch.path() / "scene.mrh", Instancing::Keep);
         EXPECT_EQ(read.file, scratch.path() / "scene.mrh");
         EXPECT_TRUE(same_bits(read.camera.vertical_fov, original.camera.vertical_fov));
         EXPECT_EQ(read.camera.eye, original.camera.eye);
@@ -123,7 +123,7 @@ TEST(HierarchyScene, GivesBackTheSettingsExactlyAndTheGeometryInstancedAsWritten
 TEST(HierarchyScene, FlattenedFileHoldsTheWorldAsOneMesh) {
     const testing::ScratchDirectory scratch("mrt_hierarchy_scene");
     const Scene original = nested_scene();
-    const Scene read = through_file(original, scratch.path() / "flat.mrh", true);
+    const Scene read = through_file(original, scratch.path() / "flat.mrh", Instancing::Flatten);
     ASSERT_EQ(read.meshes.size(), 1u);
     EXPECT_EQ(read.unique_triangle_count(), original.instanced_triangle_count());
     // The flattened mesh is flatten()'s, vertex for vertex: only the normals are quantized.
@@ -138,12 +138,13 @@ TEST(HierarchyScene, RendersLikeItsSceneFileInstancedOrFlattened) {
             RenderOptions options = testing::camera_options(scene);
             options.width = 96;
             options.height = 72;
-            options.spp = 4;
-            return render_whitted(scene, bvh, options).image;
+            return render_whitted(scene, bvh, options, {.spp = 4}).image;
         };
         const Image reference = whitted(original);
-        const Image instanced = whitted(through_file(original, scratch.path() / "i.mrh", false));
-        const Image flattened = whitted(through_file(original, scratch.path() / "f.mrh", true));
+        const Image instanced =
+            whitted(through_file(original, scratch.path() / "i.mrh", Instancing::Keep));
+        const Image flattened =
+            whitted(through_file(original, scratch.path() / "f.mrh", Instancing::Flatten));
         // Quantized normals (≤ 4.4e-5 rad) move shading by about that much; highlights and
         // mirrored edges a little more (measured: RMSE ≤ 1.1e-4 on both scenes).
         EXPECT_LT(rmse(instanced, reference), 5e-4);
@@ -156,7 +157,7 @@ TEST(HierarchyScene, RendersLikeItsSceneFileInstancedOrFlattened) {
 TEST(HierarchyScene, RefusesATriangleWithAMaterialTheRecordLacks) {
     const testing::ScratchDirectory scratch("mrt_hierarchy_scene");
     Scene scene = nested_scene();
-    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {}, false);
+    const SceneHierarchy h = build_scene_hierarchy(scene, nullptr, {});
     HierarchyData data = pack_hierarchy(h, scene.materials, "", "{}");
     scene.materials.pop_back();  // "ground", which the quad uses
     data.scene_json = scene_record_json(scene);
@@ -171,7 +172,7 @@ TEST(HierarchyScene, RefusesATriangleWithAMaterialTheRecordLacks) {
 TEST(HierarchyScene, ADamagedFileIsRefusedByTheLoaderWithTheReadersMessage) {
     const testing::ScratchDirectory scratch("mrt_hierarchy_scene");
     const fs::path path = scratch.path() / "short.mrh";
-    through_file(nested_scene(), path, false);
+    through_file(nested_scene(), path, Instancing::Keep);
     fs::resize_file(path, fs::file_size(path) / 2);
     const std::string message = testing::error_message([&] { load_scene(path); });
     EXPECT_EQ(message.rfind(path.string() + ": ", 0), 0u) << message;

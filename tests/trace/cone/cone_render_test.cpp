@@ -75,10 +75,13 @@ class ConeScene {
     /// stratified), against which the cone's are judged: the distributed tracer's soft
     /// shadows, lens and glossy lobes, or whitted's point light and pinhole.
     Image distributed(int width, int height, int spp) const {
-        return render_distributed(m_scene, bvh(), m_textures, sampled(width, height, spp)).image;
+        return render_distributed(m_scene, bvh(), m_textures, options(width, height),
+                                  {.sampling = DistributedSampling::Fixed, .spp = spp})
+            .image;
     }
     Image whitted(int width, int height, int spp) const {
-        return render_whitted(m_scene, bvh(), m_textures, sampled(width, height, spp)).image;
+        return render_whitted(m_scene, bvh(), m_textures, options(width, height), {.spp = spp})
+            .image;
     }
 
     /// Render options for a width × height image, box filter, no progress bar.
@@ -99,12 +102,6 @@ class ConeScene {
         }
         return *m_bvh;
     }
-    static RenderOptions sampled(int width, int height, int spp) {
-        RenderOptions o = options(width, height);
-        o.spp = spp;
-        o.fixed_spp = true;
-        return o;
-    }
     static Scene write_and_load(const fs::path& dir, const json& scene_json,
                                 const std::string& name) {
         std::ofstream(dir / name) << scene_json.dump(2);
@@ -115,7 +112,7 @@ class ConeScene {
             scene.textures.empty() ? nullptr
                                    : std::make_unique<TextureSampler>(scene, TextureFilter::None);
         const SceneHierarchy hierarchy =
-            build_scene_hierarchy(scene, prefilter.get(), PointOctreeOptions{}, false);
+            build_scene_hierarchy(scene, prefilter.get(), PointOctreeOptions{});
         return pack_hierarchy(hierarchy, scene.materials, "{}", "{}");
     }
 
@@ -392,12 +389,11 @@ TEST(ConeRender, CheckerboardToTheHorizonConvergesWithoutMoire) {
     const ConeScene scene(scratch.path(), horizon_board(kWidth, kHeight), "board.json");
     const ConeRenderOutput cone = scene.render(kWidth, kHeight);
     const SceneBvh bvh(scene.scene());
-    RenderOptions options = ConeScene::options(kWidth, kHeight);
+    const RenderOptions options = ConeScene::options(kWidth, kHeight);
     const RenderOutput whitted = render_whitted(scene.scene(), bvh, scene.textures(), options);
-    options.reference = true;
-    options.spp = 256;
     const RenderOutput reference =
-        render_distributed(scene.scene(), bvh, scene.textures(), options);
+        render_distributed(scene.scene(), bvh, scene.textures(), options,
+                           {.sampling = DistributedSampling::Reference, .spp = 256});
 
     // The distant half of the board: from 28 tile sides on, where a tile is 0.7 pixels tall
     // and less (3/d² rad against 0.0055 rad a pixel) and Whitted's one sample per pixel

@@ -60,39 +60,37 @@ void expect_crops_paste_to_the_frame(const Render& render, RenderOptions options
     }
 }
 
-Image whitted(const RenderOptions& options) {
-    return render_whitted(scene(), bvh(), options).image;
+Render whitted(const WhittedOptions& whitted = {}) {
+    return [whitted](const RenderOptions& options) {
+        return render_whitted(scene(), bvh(), options, whitted).image;
+    };
 }
 
-Image distributed(const RenderOptions& options) {
-    return render_distributed(scene(), bvh(), options).image;
+Render distributed(const DistributedOptions& distributed) {
+    return [distributed](const RenderOptions& options) {
+        return render_distributed(scene(), bvh(), options, distributed).image;
+    };
 }
 
 TEST(Crop, WhittedCropsPasteToTheFrame) {
     RenderOptions options;
-    expect_crops_paste_to_the_frame(whitted, options);
-    options.spp = 4;
+    expect_crops_paste_to_the_frame(whitted(), options);
     options.filter = parse_pixel_filter("gaussian:1");
-    expect_crops_paste_to_the_frame(whitted, options);
+    expect_crops_paste_to_the_frame(whitted({.spp = 4}), options);
 }
 
 TEST(Crop, DistributedCropsPasteToTheFrame) {
+    using enum DistributedSampling;
     RenderOptions options;
     // Adaptive: pass 2 reads the 5×5 neighbourhood of pass 1; a loose target so that the
     // counts it decides vary from pixel to pixel rather than all hitting the cap.
-    options.spp_max = 16;
-    options.target_error = 0.1f;
-    expect_crops_paste_to_the_frame(distributed, options);
+    const Render adaptive = distributed({.spp_max = 16, .target_error = 0.1f});
+    expect_crops_paste_to_the_frame(adaptive, options);
     options.filter = parse_pixel_filter("gaussian:1");
-    expect_crops_paste_to_the_frame(distributed, options);
+    expect_crops_paste_to_the_frame(adaptive, options);
     options.filter = PixelFilter::box();
-    options.fixed_spp = true;
-    options.spp = 3;
-    expect_crops_paste_to_the_frame(distributed, options);
-    options.fixed_spp = false;
-    options.reference = true;
-    options.spp = 8;
-    expect_crops_paste_to_the_frame(distributed, options);
+    expect_crops_paste_to_the_frame(distributed({.sampling = Fixed, .spp = 3}), options);
+    expect_crops_paste_to_the_frame(distributed({.sampling = Reference, .spp = 8}), options);
 }
 
 TEST(Crop, ACropTracesOnlyTheTilesItNeeds) {

@@ -213,12 +213,16 @@ RenderOptions options_for(const Scene& scene) {
     return o;
 }
 
+/// One stratified batch of `spp` samples in every pixel.
+DistributedOptions fixed(int spp) {
+    return {.sampling = DistributedSampling::Fixed, .spp = spp};
+}
+
 RenderOutput reference(const Scene& scene, const SceneBvh& bvh, int spp, std::uint64_t seed) {
     RenderOptions o = options_for(scene);
-    o.reference = true;
-    o.spp = spp;
     o.seed = seed;
-    return render_distributed(scene, bvh, o);
+    return render_distributed(scene, bvh, o,
+                              {.sampling = DistributedSampling::Reference, .spp = spp});
 }
 
 TEST(Distributed, ErrorFallsAtLeastAsFastAsOneOverRootSpp) {
@@ -232,10 +236,8 @@ TEST(Distributed, ErrorFallsAtLeastAsFastAsOneOverRootSpp) {
         double squared = 0.0;
         for (const std::uint64_t seed : {1u, 2u}) {
             RenderOptions o = options_for(scene);
-            o.fixed_spp = true;
-            o.spp = spp;
             o.seed = seed;
-            const double e = rmse(render_distributed(scene, bvh, o).image, truth.image);
+            const double e = rmse(render_distributed(scene, bvh, o, fixed(spp)).image, truth.image);
             squared += e * e / 2.0;
         }
         // The reference's own noise adds in quadrature; take it out.
@@ -276,12 +278,10 @@ TEST(Distributed, ReferenceStandardErrorMatchesTheSpreadOfTwoSeeds) {
 TEST(Distributed, TimeBudgetStopsWithinTheBudgetPlusOnePass) {
     const Scene scene = penumbra_scene(96, 72);
     const SceneBvh bvh(scene);
-    RenderOptions o = options_for(scene);
-    o.time_budget = 0.3;
-    o.spp_max = 65536;
-    const RenderOutput out = render_distributed(scene, bvh, o);
+    const DistributedOptions budget{.spp_max = 65536, .time_budget = 0.3};
+    const RenderOutput out = render_distributed(scene, bvh, options_for(scene), budget);
     EXPECT_GE(out.passes, 2);
-    EXPECT_LE(out.render_seconds, o.time_budget + out.last_pass_seconds + 0.1);
+    EXPECT_LE(out.render_seconds, budget.time_budget + out.last_pass_seconds + 0.1);
     EXPECT_GT(out.samples, static_cast<std::uint64_t>(96 * 72 * 2));
 }
 
@@ -299,9 +299,7 @@ TEST(Distributed, SecondPassSamplesOnlyWhereThereIsVariance) {
 
     const Scene scene = penumbra_scene();
     const SceneBvh bvh(scene);
-    RenderOptions adaptive = options_for(scene);
-    adaptive.spp_max = 32;
-    const RenderOutput out = render_distributed(scene, bvh, adaptive);
+    const RenderOutput out = render_distributed(scene, bvh, options_for(scene), {.spp_max = 32});
     EXPECT_GT(out.samples, 2u * 40u * 30u);
     EXPECT_LT(out.samples, 32u * 40u * 30u);
 }
@@ -332,10 +330,7 @@ TEST(Distributed, RoughMirrorKeepsAllTheEnergyOfAUniformSky) {
     })",
                                     "mirror.json");
     const SceneBvh bvh(scene);
-    RenderOptions o = options_for(scene);
-    o.fixed_spp = true;
-    o.spp = 4;
-    const Image image = render_distributed(scene, bvh, o).image;
+    const Image image = render_distributed(scene, bvh, options_for(scene), fixed(4)).image;
     for (int y = 0; y < image.height(); ++y) {
         for (int x = 0; x < image.width(); ++x) {
             EXPECT_NEAR(image.at(x, y)[0], 0.5f, 1e-5f);
@@ -360,10 +355,7 @@ TEST(Distributed, DepthOfFieldBlursOnlyWhatIsOutOfFocus) {
     };
     const auto render = [](const Scene& scene) {
         const SceneBvh bvh(scene);
-        RenderOptions o = options_for(scene);
-        o.fixed_spp = true;
-        o.spp = 256;
-        return render_distributed(scene, bvh, o).image;
+        return render_distributed(scene, bvh, options_for(scene), fixed(256)).image;
     };
     const Image pinhole = render(scene_with(0.0, 4.0));
     const Image focused = render(scene_with(0.3, 4.0));

@@ -117,7 +117,7 @@ std::vector<PathVertex> trace_path(const Scene& scene, const SceneBvh& bvh,
             const float ior = scene.materials[sp.material].ior;
             const float eta = sp.entering ? 1.0f / ior : ior;
             if (const auto refracted = refract(d, sp.shading_normal, eta)) {
-                v.direction = fold_to_side(*refracted, sp.geometric_normal, false);
+                v.direction = fold_to_side(*refracted, sp.geometric_normal, Side::Below);
                 v.fallback = v.direction != *refracted;
                 v.differential =
                     at_hit.refract(d, sp.shading_normal, surface.dn_dx, surface.dn_dy, eta);
@@ -130,7 +130,7 @@ std::vector<PathVertex> trace_path(const Scene& scene, const SceneBvh& bvh,
             const Mirror m = mirror_at(d, sp, surface);
             const Vec3f& r = m.direction;
             v.fallback = v.fallback || m.about_geometric;
-            v.direction = fold_to_side(r, sp.geometric_normal, true);
+            v.direction = fold_to_side(r, sp.geometric_normal, Side::Above);
             v.fallback = v.fallback || v.direction != r;
             v.differential = at_hit.reflect(d, m.normal, m.dn_dx, m.dn_dy);
         }
@@ -616,13 +616,11 @@ std::vector<Render> expect_bounded_renders(const Scene& scene) {
         const TextureSampler textures(scene, filter);
         RenderOptions options = testing::camera_options(scene);
         options.texture_filter = filter;
-        options.spp = 1;
         renders.push_back(
             {"whitted " + to_string(filter), render_whitted(scene, bvh, textures, options).image});
-        options.spp = 4;
-        options.fixed_spp = true;
+        const DistributedOptions four{.sampling = DistributedSampling::Fixed, .spp = 4};
         renders.push_back({"distributed " + to_string(filter),
-                           render_distributed(scene, bvh, textures, options).image});
+                           render_distributed(scene, bvh, textures, options, four).image});
     }
     for (const Render& render : renders) {
         int bad = 0;

@@ -53,9 +53,8 @@ fs::path checker_scene(const fs::path& dir, int columns = 96) {
 
 Image render(const Scene& scene, const SceneBvh& bvh, TextureFilter filter, int spp) {
     RenderOptions o = testing::camera_options(scene);
-    o.spp = spp;
     o.texture_filter = filter;
-    return render_whitted(scene, bvh, o).image;
+    return render_whitted(scene, bvh, o, {.spp = spp}).image;
 }
 
 TEST(TracedTextureFiltering, FootprintFiltersBeatPointSamplingAgainstASupersampledReference) {
@@ -149,14 +148,13 @@ TEST(TracedTextureFiltering, CarryingDifferentialsUnreadChangesNoPixel) {
     const SceneBvh bvh(scene);
     RenderOptions o = testing::camera_options(scene);
     o.texture_filter = TextureFilter::None;
-    o.spp = 2;
-    const Image whitted = render_whitted(scene, bvh, o).image;
-    o.fixed_spp = true;
-    const Image distributed = render_distributed(scene, bvh, o).image;
+    const WhittedOptions two_rays{.spp = 2};
+    const DistributedOptions two_samples{.sampling = DistributedSampling::Fixed, .spp = 2};
+    const Image whitted = render_whitted(scene, bvh, o, two_rays).image;
+    const Image distributed = render_distributed(scene, bvh, o, two_samples).image;
     o.differentials = Differentials::Always;
-    EXPECT_EQ(render_distributed(scene, bvh, o).image.data(), distributed.data());
-    o.fixed_spp = false;
-    EXPECT_EQ(render_whitted(scene, bvh, o).image.data(), whitted.data());
+    EXPECT_EQ(render_distributed(scene, bvh, o, two_samples).image.data(), distributed.data());
+    EXPECT_EQ(render_whitted(scene, bvh, o, two_rays).image.data(), whitted.data());
     EXPECT_EQ(parse_differentials(to_string(Differentials::Always)), Differentials::Always);
     EXPECT_EQ(parse_differentials("when-read"), Differentials::WhenRead);
     EXPECT_THROW(parse_differentials("sometimes"), Error);
@@ -167,12 +165,11 @@ TEST(TracedTextureFiltering, DistributedCarriesTheSameFootprints) {
     const Scene scene = load_scene(checker_scene(scratch.path()));
     const SceneBvh bvh(scene);
     RenderOptions o = testing::camera_options(scene);
-    o.fixed_spp = true;
-    o.spp = 1;
+    const DistributedOptions one_sample{.sampling = DistributedSampling::Fixed, .spp = 1};
     o.texture_filter = TextureFilter::Anisotropic;
-    const Image filtered = render_distributed(scene, bvh, o).image;
+    const Image filtered = render_distributed(scene, bvh, o, one_sample).image;
     o.texture_filter = TextureFilter::None;
-    const Image unfiltered = render_distributed(scene, bvh, o).image;
+    const Image unfiltered = render_distributed(scene, bvh, o, one_sample).image;
     const Image reference = render(scene, bvh, TextureFilter::None, 256);
     EXPECT_LT(rmse(filtered, reference), rmse(unfiltered, reference));
     for (const float v : filtered.data()) {

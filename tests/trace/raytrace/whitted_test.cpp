@@ -272,12 +272,11 @@ TEST(Whitted, DefaultSceneIsIdenticalForOneAndTwoThreadsAndFinite) {
     RenderOptions options;
     options.width = 96;
     options.height = 96;
-    options.spp = 4;
     options.quiet = true;
     options.threads = 1;
-    const Image one = render_whitted(scene, bvh, options).image;
+    const Image one = render_whitted(scene, bvh, options, {.spp = 4}).image;
     options.threads = 2;
-    const Image two = render_whitted(scene, bvh, options).image;
+    const Image two = render_whitted(scene, bvh, options, {.spp = 4}).image;
     ASSERT_EQ(one.data().size(), two.data().size());
     for (std::size_t i = 0; i < one.data().size(); ++i) {
         ASSERT_TRUE(std::isfinite(one.data()[i]));
@@ -294,9 +293,8 @@ TEST(Whitted, DefaultSceneMatchesTheReferenceImage) {
     RenderOptions options;
     options.width = 128;
     options.height = 128;
-    options.spp = 4;
     options.quiet = true;
-    const Image image = render_whitted(scene, bvh, options).image;
+    const Image image = render_whitted(scene, bvh, options, {.spp = 4}).image;
     const Image reference = read_image(std::filesystem::path(MRT_SOURCE_DIR) /
                                        "tests/data/reference/two-spheres-128.png");
     Image clamped = image;

@@ -91,23 +91,25 @@ struct MethodImages {
                                                        "cone-classic"};
 };
 
-RenderOptions render_options(int spp) {
+RenderOptions render_options() {
     RenderOptions options;
     options.width = kResolution;
     options.height = kResolution;
     options.threads = 2;
     options.quiet = true;
     options.filter = PixelFilter::box();
-    options.spp = spp;
-    options.fixed_spp = true;
     return options;
+}
+
+/// One stratified batch of `spp` samples in every pixel.
+DistributedOptions fixed(int spp) {
+    return {.sampling = DistributedSampling::Fixed, .spp = spp};
 }
 
 /// cone and cone-classic over the scene's hierarchy, built in memory with the defaults.
 std::pair<Image, Image> render_cones(const Scene& scene, const TextureSampler& textures,
                                      const RenderOptions& options) {
-    const SceneHierarchy hierarchy =
-        build_scene_hierarchy(scene, nullptr, PointOctreeOptions{}, false);
+    const SceneHierarchy hierarchy = build_scene_hierarchy(scene, nullptr, PointOctreeOptions{});
     const HierarchyData data = pack_hierarchy(hierarchy, scene.materials, "{}", "{}");
     const ConeGeometry geometry(data.view(), scene, textures);
     ConeOptions classic;
@@ -121,9 +123,9 @@ MethodImages render_all(const Vec3d& offset) {
     const TextureSampler textures(scene, TextureFilter::Anisotropic);
     const SceneBvh bvh(scene);
     MethodImages out;
-    out.images[0] = render_whitted(scene, bvh, textures, render_options(1)).image;
-    out.images[1] = render_distributed(scene, bvh, textures, render_options(4)).image;
-    std::tie(out.images[2], out.images[3]) = render_cones(scene, textures, render_options(1));
+    out.images[0] = render_whitted(scene, bvh, textures, render_options()).image;
+    out.images[1] = render_distributed(scene, bvh, textures, render_options(), fixed(4)).image;
+    std::tie(out.images[2], out.images[3]) = render_cones(scene, textures, render_options());
     return out;
 }
 
@@ -225,13 +227,11 @@ TEST(ExtremeScale, UniformScalesOf1e13And1e18RenderAsTheUnitObject) {
         const Scene scene = parse_scene(json, "scaled.json");
         const TextureSampler textures(scene, TextureFilter::Anisotropic);
         const SceneBvh bvh(scene);
-        RenderOptions options = render_options(2);
+        RenderOptions options = render_options();
         options.width = options.height = 48;
-        RenderOptions cone_options = render_options(1);
-        cone_options.width = cone_options.height = 48;
-        auto [cone, classic] = render_cones(scene, textures, cone_options);
-        return std::array{render_whitted(scene, bvh, options).image,
-                          render_distributed(scene, bvh, options).image, std::move(cone),
+        auto [cone, classic] = render_cones(scene, textures, options);
+        return std::array{render_whitted(scene, bvh, options, {.spp = 2}).image,
+                          render_distributed(scene, bvh, options, fixed(2)).image, std::move(cone),
                           std::move(classic)};
     };
     const auto unit = render(scaled_sphere_json("1", "1"));

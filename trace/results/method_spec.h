@@ -11,7 +11,8 @@
 // The methods and the options each takes are mrt-trace's own table (trace/render/method.h); the
 // runs mrt-compare makes when no spec is given are default_runs() in method_spec.cpp.
 
-#include "trace/compare/equal_error.h"
+#include "trace/render/method.h"
+#include "trace/results/equal_error.h"
 
 #include <iosfwd>
 #include <optional>
@@ -31,7 +32,7 @@ struct MethodOption {
 /// A parsed method spec.
 struct MethodSpec {
     std::string text;                   ///< The spec as written.
-    std::string method;                 ///< The tracer, passed as --method.
+    Method method = Method::Whitted;    ///< The tracer, passed as --method.
     std::vector<MethodOption> options;  ///< In the order written.
 };
 
@@ -56,8 +57,8 @@ std::string spec_slug(const std::string& spec_text);
 
 /// One run of the default comparison (used when no --method is given).
 struct DefaultRun {
-    std::string method;   ///< Tracer name, as mrt-trace's --method takes it.
-    std::string options;  ///< "key=value,..." after the ':' (empty: none).
+    Method method = Method::Whitted;  ///< The tracer.
+    std::string options;              ///< "key=value,..." after the ':' (empty: none).
     /// 0: a fixed run. > 0: a time-budget run whose budget is this factor times the render
     /// time of the run `budget_of`, so it is only known once that has run; with
     /// `to_equal_error`, the largest budget the search may give.

@@ -29,7 +29,7 @@
 // header and one row per run with the scalar fields of "runs" in the same order; there an
 // infinite PSNR is "inf" and an unknown value an empty field.
 
-#include "trace/compare/comparison.h"
+#include "trace/results/results.h"
 
 #include <filesystem>
 #include <iosfwd>

@@ -1,8 +1,8 @@
-#include "trace/compare/comparison_report.h"
+#include "trace/results/comparison_report.h"
 
 #include "common/system/atomic_file.h"
-#include "trace/compare/derived_figures.h"
-#include "trace/compare/headline_ratios.h"
+#include "trace/results/derived_figures.h"
+#include "trace/results/headline_ratios.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -137,7 +137,7 @@ json derived_json(const std::vector<RunResult>& runs) {
         equal_time[curve.label] = at ? json(at->rmse) : json(nullptr);
         ratio[curve.label] = at ? json(at->rmse / base.rmse) : json(nullptr);
         for (const std::size_t i : curve.dominated) {
-            dominated.push_back({{"method", runs[i].method}, {"spec", runs[i].spec}});
+            dominated.push_back({{"method", to_string(runs[i].method)}, {"spec", runs[i].spec}});
         }
     }
     json speedups = json::array();
@@ -152,7 +152,7 @@ json derived_json(const std::vector<RunResult>& runs) {
     return {{"time", "render_seconds"},
             {"baseline",
              {{"run", d->baseline},
-              {"method", base.method},
+              {"method", to_string(base.method)},
               {"curve", d->curves[d->baseline_curve].label},
               {"spec", base.spec},
               {"seconds", base.render_seconds},
@@ -176,7 +176,7 @@ std::string seconds_text(double s) {
 std::string results_json_text(const Comparison& c) {
     json runs = json::array();
     for (const RunResult& r : c.runs) {
-        runs.push_back({{"method", r.method},
+        runs.push_back({{"method", to_string(r.method)},
                         {"spec", r.spec},
                         {"render_seconds", r.render_seconds},
                         {"total_seconds", r.total_seconds},
@@ -227,13 +227,13 @@ std::string results_csv_text(const Comparison& c) {
         "method,spec,render_seconds,total_seconds,wall_seconds,rays,samples,rmse,psnr,ssim,"
         "image,error_image,stats,stopped,display_rmse\n";
     for (const RunResult& r : c.runs) {
-        csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(r.method),
-                           csv_field(r.spec), csv_number(r.render_seconds),
-                           csv_number(r.total_seconds), csv_number(r.wall_seconds), r.rays,
-                           r.samples ? std::to_string(*r.samples) : std::string(),
-                           csv_number(r.rmse), csv_number(r.psnr), csv_number(r.ssim),
-                           csv_field(r.image), csv_field(r.error_image), csv_field(r.stats),
-                           r.stopped ? "true" : "false", csv_number(r.display_rmse));
+        csv += fmt::format(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            csv_field(std::string(to_string(r.method))), csv_field(r.spec),
+            csv_number(r.render_seconds), csv_number(r.total_seconds), csv_number(r.wall_seconds),
+            r.rays, r.samples ? std::to_string(*r.samples) : std::string(), csv_number(r.rmse),
+            csv_number(r.psnr), csv_number(r.ssim), csv_field(r.image), csv_field(r.error_image),
+            csv_field(r.stats), r.stopped ? "true" : "false", csv_number(r.display_rmse));
     }
     return csv;
 }

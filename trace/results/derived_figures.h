@@ -13,8 +13,8 @@
 //   - the speed-up between every two curves at every level both reach.
 // All in render seconds and RMSE of linear radiance.
 
-#include "trace/compare/comparison.h"
-#include "trace/compare/equal_error.h"
+#include "trace/results/equal_error.h"
+#include "trace/results/results.h"
 
 #include <array>
 #include <cstddef>

@@ -4,10 +4,10 @@
 // laws, on which the log–log line between two runs is exact, so every interpolation has an
 // analytic answer.
 
-#include "trace/compare/equal_error.h"
-#include "trace/compare/derived_figures.h"
-#include "trace/compare/headline_ratios.h"
-#include "trace/compare/method_spec.h"
+#include "trace/results/equal_error.h"
+#include "trace/results/derived_figures.h"
+#include "trace/results/headline_ratios.h"
+#include "trace/results/method_spec.h"
 
 #include <gtest/gtest.h>
 

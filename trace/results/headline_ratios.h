@@ -12,9 +12,9 @@
 //                                 (max-depth=0; the paper: 2.8 on its Figure 7).
 // A ratio is missing when its runs are not in the comparison.
 
-#include "trace/compare/comparison.h"
-#include "trace/compare/equal_error.h"
-#include "trace/compare/method_spec.h"
+#include "trace/results/equal_error.h"
+#include "trace/results/method_spec.h"
+#include "trace/results/results.h"
 
 #include <optional>
 #include <string>

@@ -1,4 +1,4 @@
-#include "trace/compare/equal_error.h"
+#include "trace/results/equal_error.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "trace/compare/method_spec.h"
+#include "trace/results/method_spec.h"
 
 #include "common/system/error.h"
 #include "trace/render/method.h"
@@ -43,20 +43,22 @@ std::vector<std::string> split(const std::string& s, char separator) {
     }
 }
 
-/// The spec, once its name is a method and it gives no option of other methods only, which
-/// mrt-trace would refuse after the comparison had spent time on the runs before it.
-MethodSpec checked_against_method(MethodSpec spec) {
-    const std::optional<Method> method = find_method(spec.method);
+/// The spec, once its syntax holds, with its method named `method_name`: refused when that is
+/// no method or an option is other methods' only, which mrt-trace would refuse after the
+/// comparison had spent time on the runs before it.
+MethodSpec checked_against_method(MethodSpec spec, const std::string& method_name) {
+    const std::optional<Method> method = find_method(method_name);
     if (!method) {
         throw spec_error(spec.text, fmt::format("\"{}\" is not a method of mrt-trace ({})",
-                                                spec.method, method_choices()));
+                                                method_name, method_choices()));
     }
+    spec.method = *method;
     for (const MethodOption& option : spec.options) {
-        if (!takes_option(*method, option.key)) {
-            throw spec_error(
-                spec.text,
-                fmt::format("the {} method does not take option \"{}\" ({})", spec.method,
-                            option.key, refusal(*find_method_only_option(option.key))));
+        if (!takes_option(spec.method, option.key)) {
+            throw spec_error(spec.text,
+                             fmt::format("the {} method does not take option \"{}\" ({})",
+                                         to_string(spec.method), option.key,
+                                         refusal(*find_method_only_option(option.key))));
         }
     }
     return spec;
@@ -80,15 +82,15 @@ MethodSpec parse_method_spec(const std::string& text) {
     MethodSpec spec;
     spec.text = text;
     const auto colon = text.find(':');
-    spec.method = text.substr(0, colon);
-    if (spec.method.empty()) {
+    const std::string method_name = text.substr(0, colon);
+    if (method_name.empty()) {
         throw spec_error(text, "the method name is empty");
     }
-    if (!is_name(spec.method)) {
-        throw spec_error(text, fmt::format("\"{}\" is not a method name", spec.method));
+    if (!is_name(method_name)) {
+        throw spec_error(text, fmt::format("\"{}\" is not a method name", method_name));
     }
     if (colon == std::string::npos) {
-        return checked_against_method(std::move(spec));
+        return checked_against_method(std::move(spec), method_name);
     }
     const std::string list = text.substr(colon + 1);
     if (list.empty()) {
@@ -131,11 +133,11 @@ MethodSpec parse_method_spec(const std::string& text) {
         }
         spec.options.push_back(std::move(option));
     }
-    return checked_against_method(std::move(spec));
+    return checked_against_method(std::move(spec), method_name);
 }
 
 std::vector<std::string> trace_arguments(const MethodSpec& spec) {
-    std::vector<std::string> args = {"--method", spec.method};
+    std::vector<std::string> args = {"--method", name(spec.method)};
     for (const MethodOption& option : spec.options) {
         args.push_back("--" + option.key);
         if (option.value) {
@@ -161,35 +163,35 @@ std::string spec_slug(const std::string& spec_text) {
 const std::vector<DefaultRun>& default_runs() {
     using enum Method;
     static const std::vector<DefaultRun> runs = {
-        {name(Whitted), "", 0.0},
-        {name(Whitted), "spp=4", 0.0},
-        {name(Distributed), "spp-max=4", 0.0},
-        {name(Distributed), "spp-max=16", 0.0},
-        {name(Distributed), "spp-max=64", 0.0},
+        {Whitted, "", 0.0},
+        {Whitted, "spp=4", 0.0},
+        {Distributed, "spp-max=4", 0.0},
+        {Distributed, "spp-max=16", 0.0},
+        {Distributed, "spp-max=64", 0.0},
         // Time budgets of 4×, 16× and 64× what whitted took: the distributed curve from a cheap
         // anti-aliasing pass to a nearly converged image, for equal-time readings.
-        {name(Distributed), "", 4.0},
-        {name(Distributed), "", 16.0},
-        {name(Distributed), "", 64.0},
-        {name(Cone), "", 0.0},
+        {Distributed, "", 4.0},
+        {Distributed, "", 16.0},
+        {Distributed, "", 64.0},
+        {Cone, "", 0.0},
         // Classic cone tracing can run for hours on a detailed scene: it gets 64× whitted's
         // time and stops there cleanly, saying so (its stats' "stopped").
-        {name(ConeClassic), "", 64.0},
+        {ConeClassic, "", 64.0},
         // The headline ratios (headline_ratios.h), each measured in this one run: primary rays
         // alone, where classic cone tracing is compared with ours (Wand & Straßer §6 found it
         // 2.8× slower), classic given 16× our time before it stops; distributed at our time;
         // and the distributed budgets that reach our RMSE and our display-referred RMSE,
         // searched for and measured, up to 16× our time.
-        {name(Cone), "max-depth=0", 0.0},
-        {name(ConeClassic), "max-depth=0", 16.0, name(Cone) + ":max-depth=0"},
-        {name(Distributed), "", 1.0, name(Cone)},
-        {.method = name(Distributed),
+        {Cone, "max-depth=0", 0.0},
+        {ConeClassic, "max-depth=0", 16.0, name(Cone) + ":max-depth=0"},
+        {Distributed, "", 1.0, name(Cone)},
+        {.method = Distributed,
          .options = "",
          .budget_factor = 16.0,
          .budget_of = name(Cone),
          .to_equal_error = true,
          .measure = ErrorMeasure::Rmse},
-        {.method = name(Distributed),
+        {.method = Distributed,
          .options = "",
          .budget_factor = 16.0,
          .budget_of = name(Cone),
@@ -209,7 +211,7 @@ const std::string& baseline_spec() {
 }
 
 std::string default_run_spec(const DefaultRun& run) {
-    return run.options.empty() ? run.method : run.method + ":" + run.options;
+    return run.options.empty() ? name(run.method) : name(run.method) + ":" + run.options;
 }
 
 std::string format_budget_seconds(double seconds) {
@@ -246,12 +248,12 @@ std::string budget_run_spec(const DefaultRun& run, double baseline_seconds) {
 
 std::string spec_with_budget(const DefaultRun& run, double seconds) {
     const std::string budget = "time-budget=" + format_budget_seconds(seconds);
-    return run.method + ":" + (run.options.empty() ? budget : run.options + "," + budget);
+    return name(run.method) + ":" + (run.options.empty() ? budget : run.options + "," + budget);
 }
 
 std::optional<double> time_budget_of(const std::string& spec_text, const DefaultRun& run) {
     const std::string prefix =
-        run.method + ":" + (run.options.empty() ? "" : run.options + ",") + "time-budget=";
+        name(run.method) + ":" + (run.options.empty() ? "" : run.options + ",") + "time-budget=";
     if (spec_text.rfind(prefix, 0) != 0) {
         return std::nullopt;
     }

@@ -1,7 +1,7 @@
-#include "trace/compare/derived_figures.h"
+#include "trace/results/derived_figures.h"
 
-#include "trace/compare/method_spec.h"
 #include "trace/render/method.h"
+#include "trace/results/method_spec.h"
 
 #include <algorithm>
 #include <cmath>
@@ -78,12 +78,11 @@ std::pair<std::size_t, std::string> choose_baseline(const std::vector<RunResult>
         return best;
     };
     for (std::size_t i = 0; i < runs.size(); ++i) {
-        if (usable(runs[i]) && runs[i].method == to_string(Method::Cone)) {
+        if (usable(runs[i]) && runs[i].method == Method::Cone) {
             return {i, "first cone run"};
         }
     }
-    if (const auto w =
-            fastest([](const RunResult& r) { return r.method == to_string(Method::Whitted); })) {
+    if (const auto w = fastest([](const RunResult& r) { return r.method == Method::Whitted; })) {
         return {*w, "fastest whitted run"};
     }
     return {*fastest([](const RunResult&) { return true; }),
@@ -112,9 +111,9 @@ std::string curve_label(const std::string& spec) {
         labels.insert(labels.begin(), "time budget");
     }
     if (labels.empty()) {
-        return parsed.method;
+        return std::string(to_string(parsed.method));
     }
-    std::string label = parsed.method + " (";
+    std::string label = std::string(to_string(parsed.method)) + " (";
     for (std::size_t i = 0; i < labels.size(); ++i) {
         label += (i > 0 ? ", " : "") + labels[i];
     }

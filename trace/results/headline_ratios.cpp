@@ -1,4 +1,4 @@
-#include "trace/compare/headline_ratios.h"
+#include "trace/results/headline_ratios.h"
 #include "trace/render/method.h"
 
 #include <algorithm>
@@ -103,17 +103,15 @@ BudgetCurve budget_curve(const std::vector<RunResult>& runs, const DefaultRun& k
 
 std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs) {
     std::vector<HeadlineRatio> ratios;
-    const RunResult* whitted = find_run(runs, [](const MethodSpec& s) {
-        return s.method == to_string(Method::Whitted) && s.options.empty();
-    });
-    const RunResult* cone = find_run(runs, [](const MethodSpec& s) {
-        return s.method == to_string(Method::Cone) && s.options.empty();
-    });
+    const RunResult* whitted = find_run(
+        runs, [](const MethodSpec& s) { return s.method == Method::Whitted && s.options.empty(); });
+    const RunResult* cone = find_run(
+        runs, [](const MethodSpec& s) { return s.method == Method::Cone && s.options.empty(); });
     const RunResult* cone_primary = find_run(runs, [](const MethodSpec& s) {
-        return s.method == to_string(Method::Cone) && s.options.size() == 1 && is_primary_only(s);
+        return s.method == Method::Cone && s.options.size() == 1 && is_primary_only(s);
     });
     const RunResult* classic_primary = find_run(runs, [](const MethodSpec& s) {
-        return s.method == to_string(Method::ConeClassic) && is_primary_only(s) &&
+        return s.method == Method::ConeClassic && is_primary_only(s) &&
                has_only(s, {"max-depth", "time-budget"});
     });
 
@@ -121,7 +119,7 @@ std::vector<HeadlineRatio> headline_ratios(const std::vector<RunResult>& runs) {
         ratios.push_back(time_ratio("cone_over_whitted", *cone, *whitted));
     }
     DefaultRun distributed;
-    distributed.method = to_string(Method::Distributed);
+    distributed.method = Method::Distributed;
     const BudgetCurve curve = budget_curve(runs, distributed, ErrorMeasure::Rmse);
     const BudgetCurve display_curve = budget_curve(runs, distributed, ErrorMeasure::DisplayRmse);
     if (cone != nullptr && cone->render_seconds > 0.0) {
