@@ -8,7 +8,7 @@
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/mesh/mesh.h"
 #include "common/scene/scene.h"
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 #include "preprocess/scene_hierarchy.h"
 
 #include <span>

@@ -13,7 +13,7 @@
 #include "common/system/stopwatch.h"
 #include "common/texture/texture.h"
 #include "preprocess/hierarchy_pack.h"
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 #include "preprocess/scene_hierarchy.h"
 
 #include <fmt/format.h>
@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
         ->default_val(100);
     app.add_option("--sampling", args.sampling,
                    "Placement of the prefiltering samples on each triangle")
-        ->check(CLI::IsMember({"low-discrepancy", "random"}))
+        ->check(CLI::IsMember(mrt::kTriangleSamplingNames.names()))
         ->default_val("low-discrepancy");
     app.add_option("--seed", args.octree.seed, "Seed of the sample sequences")->default_val(0);
     app.add_option("--threads", args.threads, "Worker threads (0 = all cores)")
@@ -149,8 +149,7 @@ int main(int argc, char** argv) {
             limit.emplace(tbb::global_control::max_allowed_parallelism,
                           static_cast<std::size_t>(args.threads));
         }
-        args.octree.sampling = args.sampling == "random" ? mrt::TriangleSampling::Random
-                                                         : mrt::TriangleSampling::LowDiscrepancy;
+        args.octree.sampling = *mrt::kTriangleSamplingNames.find(args.sampling);
         return run(args);
     });
 }

@@ -4,10 +4,10 @@
 #include "common/math/random.h"
 #include "common/system/error.h"
 #include "common/system/progress.h"
-#include "preprocess/build_budget.h"
-#include "preprocess/octree_layout.h"
-#include "preprocess/surface_prefilter.h"
-#include "preprocess/triangle_sampling.h"
+#include "preprocess/octree/build_budget.h"
+#include "preprocess/octree/octree_layout.h"
+#include "preprocess/octree/surface_prefilter.h"
+#include "preprocess/octree/triangle_sampling.h"
 
 #include <tbb/parallel_for.h>
 

@@ -1,11 +1,11 @@
 #pragma once
 // The point hierarchy of a whole scene, instanced (the paper's Figure 7 scene is 110 k unique
 // triangles instanced to 8.7 M): one point octree per unique mesh in its object space
-// (preprocess/point_octree.h), and per group an instance tree in the group's space whose nodes
-// hold the group's instances at the leaves and, wherever a node holds more than one instance
+// (preprocess/octree/point_octree.h), and per group an instance tree in the group's space whose
+// nodes hold the group's instances at the leaves and, wherever a node holds more than one instance
 // below it, points that approximate all of them.
 //
-// A group node's points are prefiltered like a mesh node's (preprocess/surface_prefilter.h),
+// A group node's points are prefiltered like a mesh node's (preprocess/octree/surface_prefilter.h),
 // from the finer representations below it, mapped into the group's space: the points of the
 // first nodes of each instance's trees whose spacing is at most half this node's (with the
 // triangles kept above them, sampled at c per voxel face). With that spacing every surface
@@ -22,7 +22,7 @@
 #include "common/math/math.h"
 #include "common/mesh/mesh.h"
 #include "common/scene/scene.h"
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 
 #include <cstdint>
 #include <memory>

@@ -18,8 +18,8 @@
 //
 // the alpha ramp, whatever the footprint's size, anisotropy and orientation and the incidence.
 // A_i = coverage_i·h², the octree's coverage being the surface area a point stands for relative
-// to a voxel face (preprocess/point_octree.h). The two cosines of grazing incidence (projected
-// area, projected density) cancel analytically: the weight is multiplied by |n·d|, never
+// to a voxel face (preprocess/octree/point_octree.h). The two cosines of grazing incidence
+// (projected area, projected density) cancel analytically: the weight is multiplied by |n·d|, never
 // divided by it, so it goes to 0 smoothly and a point seen edge-on weighs nothing.
 //
 // Widening. At the threshold F's semi-axes are h/2 and its Gaussian has σ = h/(2√2); sampled at
@@ -41,8 +41,8 @@
 // sphere, the Stanford bunny; docs/ point-weights.md). The octree makes both inputs of the
 // quadrature right: coverage is each point's share of its samples' area (so a node's coverages add
 // up to its surface's area, seams and the denser points of slanted surfaces included), and a point
-// is placed on the surface, voxel centre + offset·h·normal (preprocess/point_octree.h), not up to
-// √3/2·h off it, where a nearly axis-aligned surface would jump by h at each voxel layer it
+// is placed on the surface, voxel centre + offset·h·normal (preprocess/octree/point_octree.h), not
+// up to √3/2·h off it, where a nearly axis-aligned surface would jump by h at each voxel layer it
 // crosses. The unscaled sum then ranges over [0.67, 1.38] in surface interiors (21 350 cones,
 // mean 1.00; before the octree stored offsets and area shares it was [0.30, 1.74]); κ = 1.6 lifts
 // the minimum to 1.07 and puts the maximum at 2.2.

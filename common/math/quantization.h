@@ -430,7 +430,7 @@ constexpr float decode_unit8(std::uint8_t code) {
     return static_cast<float>(code) / 255.0f;
 }
 
-/// Coverage (the area a point stands for over its voxel face, preprocess/point_octree.h) in
+/// Coverage (the area a point stands for over its voxel face, preprocess/octree/point_octree.h) in
 /// [0, 2] as encode_unit8(c/2): a surface folded into one voxel counts up to twice; more
 /// saturates. Error at most 2·kUnit8MaxError.
 constexpr std::uint8_t encode_coverage8(float coverage) {

@@ -1,6 +1,7 @@
 // The parts of the format scans that are not one format's: choosing the format, reading text.
 
 #include "common/mesh/format_scan.h"
+#include "common/system/enum_names.h"
 
 #include <fmt/format.h>
 
@@ -33,17 +34,13 @@ std::optional<Format> format_from_extension(const fs::path& file) {
 }
 
 std::string_view format_name(Format format) {
-    switch (format) {
-        case Format::obj:
-            return "OBJ";
-        case Format::ply:
-            return "PLY";
-        case Format::off:
-            return "OFF";
-        case Format::stl:
-            return "STL";
-    }
-    return "mesh";
+    static constexpr EnumNames<Format, 4> kNames{{{
+        {Format::obj, "OBJ"},
+        {Format::ply, "PLY"},
+        {Format::off, "OFF"},
+        {Format::stl, "STL"},
+    }}};
+    return kNames.name(format, "mesh");
 }
 
 std::string_view trim(std::string_view s) {

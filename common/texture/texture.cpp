@@ -32,13 +32,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr std::array<std::pair<TextureFilter, const char*>, 4> kFilterNames{{
-    {TextureFilter::None, "none"},
-    {TextureFilter::Distance, "distance"},
-    {TextureFilter::Trilinear, "trilinear"},
-    {TextureFilter::Anisotropic, "anisotropic"},
-}};
-
 /// Longest derivative passed to OpenImageIO, in texture widths. A footprint as wide as the
 /// texture already averages all of it; longer ones only cost time (FOOTPRINT-NOTES: clamping
 /// huge derivatives gave the same image in a third of the time).
@@ -203,22 +196,15 @@ thread_local ThreadInfoCache t_thread_info;
 }  // namespace
 
 TextureFilter parse_texture_filter(const std::string& text) {
-    for (const auto& [filter, name] : kFilterNames) {
-        if (text == name) {
-            return filter;
-        }
+    if (const std::optional<TextureFilter> filter = kTextureFilterNames.find(text)) {
+        return *filter;
     }
-    throw Error("texture filter: found \"" + text +
-                "\", expected none, distance, trilinear or anisotropic");
+    throw Error("texture filter: found \"" + text + "\", expected " +
+                kTextureFilterNames.choices());
 }
 
 std::string to_string(TextureFilter filter) {
-    for (const auto& [f, name] : kFilterNames) {
-        if (f == filter) {
-            return name;
-        }
-    }
-    return "unknown";
+    return std::string(kTextureFilterNames.name(filter));
 }
 
 std::ostream& operator<<(std::ostream& os, TextureFilter filter) {
@@ -239,7 +225,7 @@ struct TextureSampler::Impl {
     std::vector<int> channels;
     /// Options of each filter, indexed by TextureFilter; copied per lookup because
     /// TextureSystem::texture takes them by non-const reference.
-    std::array<OIIO::TextureOpt, kFilterNames.size()> options;
+    std::array<OIIO::TextureOpt, kTextureFilterNames.size()> options;
 
     Impl() {
         for (OIIO::TextureOpt& o : options) {

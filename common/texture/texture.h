@@ -24,6 +24,7 @@
 #include "common/math/math.h"
 #include "common/scene/scene.h"
 #include "common/system/budgets.h"
+#include "common/system/enum_names.h"
 
 #include <iosfwd>
 #include <memory>
@@ -47,6 +48,14 @@ enum class TextureFilter {
     /// derivatives scaled by 0.75 so that its extent is the pixel's (texture.cpp).
     Anisotropic,
 };
+
+/// Each filter's name on the command line and in --stats.
+inline constexpr EnumNames<TextureFilter, 4> kTextureFilterNames{{{
+    {TextureFilter::None, "none"},
+    {TextureFilter::Distance, "distance"},
+    {TextureFilter::Trilinear, "trilinear"},
+    {TextureFilter::Anisotropic, "anisotropic"},
+}}};
 
 /// Parses "none" | "distance" | "trilinear" | "anisotropic"; throws mrt::Error otherwise.
 TextureFilter parse_texture_filter(const std::string& text);

@@ -11,10 +11,10 @@
 //      the traversal stops; otherwise it goes on to the children, nearest first, and in a group
 //      object to the instances the node holds, with the cone mapped into their object space.
 //
-// A node's points stand for everything below it (preprocess/point_octree.h): in a mesh octree
-// the children's triangles, not the node's own (those are intersected in step 2 at any level);
-// in an instance tree the instances in its subtree. A leaf of a mesh octree has no points, only
-// its triangles.
+// A node's points stand for everything below it (preprocess/octree/point_octree.h): in a mesh
+// octree the children's triangles, not the node's own (those are intersected in step 2 at any
+// level); in an instance tree the instances in its subtree. A leaf of a mesh octree has no points,
+// only its triangles.
 //
 // Level blending (the paper's "mip-mapping"): with s = log2(d_min / h) ∈ [0, 1) for the chosen
 // level (h its spacing, d_min the footprint's minimum diameter), its points are weighted by s

@@ -28,6 +28,7 @@
 
 #include "common/footprint/footprint.h"
 #include "common/math/math.h"
+#include "common/system/enum_names.h"
 #include "trace/cone/cone_ray.h"
 
 #include <algorithm>
@@ -38,6 +39,12 @@
 namespace mrt {
 
 enum class TriangleWeight { Paper, Coverage };
+
+/// mrt-trace --triangle-weight's names.
+inline constexpr EnumNames<TriangleWeight, 2> kTriangleWeightNames{{{
+    {TriangleWeight::Coverage, "coverage"},
+    {TriangleWeight::Paper, "paper"},
+}}};
 
 /// How the cone is seen at a depth: the map into its unit Gaussian's coordinates.
 struct GaussianFrame {

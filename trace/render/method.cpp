@@ -34,29 +34,15 @@ std::ostream& operator<<(std::ostream& os, Method method) {
 }
 
 std::optional<Method> find_method(std::string_view name) {
-    for (const Method m : kMethods) {
-        if (to_string(m) == name) {
-            return m;
-        }
-    }
-    return std::nullopt;
+    return kMethodNames.find(name);
 }
 
 std::vector<std::string> method_names() {
-    std::vector<std::string> names;
-    for (const Method m : kMethods) {
-        names.emplace_back(to_string(m));
-    }
-    return names;
+    return kMethodNames.names();
 }
 
 std::string method_choices() {
-    std::string text;
-    for (std::size_t i = 0; i < kMethods.size(); ++i) {
-        text += (i == 0 ? "" : i + 1 == kMethods.size() ? " or " : ", ");
-        text += to_string(kMethods[i]);
-    }
-    return text;
+    return kMethodNames.choices();
 }
 
 Method parse_method(std::string_view name) {

@@ -4,6 +4,8 @@
 // learns the methods from the other's text. A new tracer is a new Method, its name in to_string,
 // and its row in the options it reads (method.cpp).
 
+#include "common/system/enum_names.h"
+
 #include <array>
 #include <cstdint>
 #include <initializer_list>
@@ -24,23 +26,23 @@ enum class Method : std::uint8_t {
     ConeClassic,  ///< "cone-classic": the same against every triangle, no points (§6).
 };
 
-/// Every method, in the order mrt-trace's --help lists them.
+/// Every method and its name on the command line and in --stats, in the order mrt-trace's
+/// --help lists them.
+inline constexpr EnumNames<Method, 4> kMethodNames{{{
+    {Method::Whitted, "whitted"},
+    {Method::Distributed, "distributed"},
+    {Method::Cone, "cone"},
+    {Method::ConeClassic, "cone-classic"},
+}}};
+
+/// Every method, in kMethodNames' order.
 inline constexpr std::array kMethods = {Method::Whitted, Method::Distributed, Method::Cone,
                                         Method::ConeClassic};
+static_assert(kMethods.size() == kMethodNames.size());
 
-/// The method's name on the command line and in --stats ("cone-classic").
+/// The method's name ("cone-classic").
 constexpr std::string_view to_string(Method method) {
-    switch (method) {
-        case Method::Whitted:
-            return "whitted";
-        case Method::Distributed:
-            return "distributed";
-        case Method::Cone:
-            return "cone";
-        case Method::ConeClassic:
-            return "cone-classic";
-    }
-    return "unknown";
+    return kMethodNames.name(method);
 }
 std::ostream& operator<<(std::ostream& os, Method method);
 

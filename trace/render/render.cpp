@@ -15,17 +15,14 @@ std::ostream& operator<<(std::ostream& os, const PixelWindow& w) {
 }
 
 Differentials parse_differentials(const std::string& text) {
-    if (text == "when-read") {
-        return Differentials::WhenRead;
+    if (const std::optional<Differentials> differentials = kDifferentialsNames.find(text)) {
+        return *differentials;
     }
-    if (text == "always") {
-        return Differentials::Always;
-    }
-    throw Error("differentials: found \"" + text + "\", expected when-read or always");
+    throw Error("differentials: found \"" + text + "\", expected " + kDifferentialsNames.choices());
 }
 
 std::string to_string(Differentials differentials) {
-    return differentials == Differentials::Always ? "always" : "when-read";
+    return std::string(kDifferentialsNames.name(differentials));
 }
 
 }  // namespace mrt

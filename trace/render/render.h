@@ -4,6 +4,7 @@
 // bit-identical for any thread count and any tile schedule.
 
 #include "common/image/image.h"
+#include "common/system/enum_names.h"
 #include "common/system/fields.h"
 #include "common/texture/texture.h"
 #include "trace/render/pixel_filter.h"
@@ -43,6 +44,11 @@ enum class Differentials {
     /// with the `none` texture filter this prices carrying them (lookups stay unfiltered).
     Always,
 };
+
+inline constexpr EnumNames<Differentials, 2> kDifferentialsNames{{{
+    {Differentials::WhenRead, "when-read"},
+    {Differentials::Always, "always"},
+}}};
 
 /// Parses "when-read" | "always"; throws mrt::Error otherwise.
 Differentials parse_differentials(const std::string& text);

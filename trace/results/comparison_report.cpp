@@ -1,10 +1,12 @@
 #include "trace/results/comparison_report.h"
 
 #include "common/system/atomic_file.h"
+#include "common/system/enum_names.h"
 #include "trace/results/derived_figures.h"
 #include "trace/results/headline_ratios.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -49,16 +51,13 @@ std::string headline_description(const HeadlineRatio& r) {
     return r.key;
 }
 
-const char* origin_name(ReferenceOrigin origin) {
-    switch (origin) {
-        case ReferenceOrigin::Rendered:
-            return "rendered";
-        case ReferenceOrigin::Cached:
-            return "cached";
-        case ReferenceOrigin::Given:
-            return "given";
-    }
-    return "unknown";
+std::string_view origin_name(ReferenceOrigin origin) {
+    static constexpr EnumNames<ReferenceOrigin, 3> kNames{{{
+        {ReferenceOrigin::Rendered, "rendered"},
+        {ReferenceOrigin::Cached, "cached"},
+        {ReferenceOrigin::Given, "given"},
+    }}};
+    return kNames.name(origin);
 }
 
 /// The reference's linear image: relative to DIR when it is the cached one, else as given.
@@ -250,6 +249,54 @@ std::string format_psnr(double psnr) {
     return fmt::format("{:.2f}", psnr);
 }
 
+namespace {
+
+/// A time to an error as the console shows it: "6.25 s", "≤ 0.5 s", "≥ 16 s", "-".
+std::string time_text(const std::optional<TimeToError>& t) {
+    if (!t) {
+        return "-";
+    }
+    return fmt::format("{}{:.3g} s", relation_prefix(relation_of(t->kind)), t->seconds);
+}
+
+/// The equal-time and equal-error figures results.json holds under "derived", one line each:
+/// every curve's RMSE at the baseline's time, its time to each error level, and the speed-ups
+/// of the baseline's curve over the others (or theirs over it) at equal error.
+void print_derived_figures(std::ostream& os, const std::vector<RunResult>& runs,
+                           const DerivedFigures& d) {
+    const RunResult& base = runs[d.baseline];
+    os << fmt::format("baseline: {} ({}), {:.3g} s, RMSE {:.4g}\n", base.spec, d.chosen_as,
+                      base.render_seconds, base.rmse);
+    std::vector<std::string> at_time;
+    for (std::size_t i = 0; i < d.curves.size(); ++i) {
+        if (const auto& at = d.equal_time[i]) {
+            at_time.push_back(fmt::format("{} {:.4g} ({:.3g}×)", d.curves[i].label, at->rmse,
+                                          at->rmse / base.rmse));
+        }
+    }
+    if (!at_time.empty()) {
+        os << fmt::format("RMSE at the baseline's time: {}\n", fmt::join(at_time, ", "));
+    }
+    for (std::size_t level = 0; level < d.levels.size(); ++level) {
+        std::vector<std::string> times;
+        for (std::size_t i = 0; i < d.curves.size(); ++i) {
+            times.push_back(d.curves[i].label + " " + time_text(d.time_to_error[i][level]));
+        }
+        os << fmt::format("time to RMSE {:.4g}: {}\n", d.levels[level], fmt::join(times, ", "));
+    }
+    for (const EqualErrorSpeedup& s : d.speedups) {
+        if (s.faster == d.baseline_curve || s.slower == d.baseline_curve) {
+            os << fmt::format(
+                "at RMSE {:.4g}: {} is {:.3g}× faster than {} ({:.3g} s against "
+                "{:.3g} s)\n",
+                s.error, d.curves[s.faster].label, s.speedup, d.curves[s.slower].label,
+                s.faster_seconds, s.slower_seconds);
+        }
+    }
+}
+
+}  // namespace
+
 void print_results_table(std::ostream& os, const Comparison& c) {
     std::size_t spec_width = 4;
     for (const RunResult& r : c.runs) {
@@ -272,6 +319,9 @@ void print_results_table(std::ostream& os, const Comparison& c) {
         const std::string numerator = r.numerator.empty() ? "" : " (" + r.numerator + ")";
         os << fmt::format("{}: {}{:.3g}{}, {}\n", headline_description(r),
                           relation_prefix(r.relation), r.value, numerator, r.how);
+    }
+    if (const std::optional<DerivedFigures> d = derived_figures(c.runs)) {
+        print_derived_figures(os, c.runs, *d);
     }
 }
 

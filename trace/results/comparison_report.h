@@ -47,7 +47,9 @@ std::string results_csv_text(const Comparison& comparison);
 void write_results(const Comparison& comparison, const std::filesystem::path& dir);
 
 /// The aligned table of runs (#, spec, render s, total s, rays, RMSE, display RMSE, PSNR, SSIM)
-/// followed by the reference line and one line per headline ratio.
+/// followed by the reference line, one line per headline ratio and the derived figures (the
+/// baseline, every curve's RMSE at its time and time to each error level, the baseline curve's
+/// speed-ups at equal error).
 void print_results_table(std::ostream& os, const Comparison& comparison);
 
 /// "reference: 1024 spp, 12.3 s, std error 0.0012 (rendered, reference.exr)".

@@ -1,4 +1,5 @@
 #include "trace/results/headline_ratios.h"
+#include "common/system/enum_names.h"
 #include "trace/render/method.h"
 
 #include <algorithm>
@@ -164,42 +165,32 @@ RatioRelation relation_of(TimeToErrorKind kind) {
     return RatioRelation::Equal;
 }
 
-const char* how_of(TimeToErrorKind kind) {
-    switch (kind) {
-        case TimeToErrorKind::Measured:
-            return "measured";
-        case TimeToErrorKind::Interpolated:
-            return "interpolated between two runs";
-        case TimeToErrorKind::AtMost:
-            return "even its fastest run is more accurate";
-        case TimeToErrorKind::AtLeast:
-            return "no run reaches it";
-    }
-    return "";
+std::string_view how_of(TimeToErrorKind kind) {
+    static constexpr EnumNames<TimeToErrorKind, 4> kHow{{{
+        {TimeToErrorKind::Measured, "measured"},
+        {TimeToErrorKind::Interpolated, "interpolated between two runs"},
+        {TimeToErrorKind::AtMost, "even its fastest run is more accurate"},
+        {TimeToErrorKind::AtLeast, "no run reaches it"},
+    }}};
+    return kHow.name(kind, "");
 }
 
-const char* relation_prefix(RatioRelation relation) {
-    switch (relation) {
-        case RatioRelation::AtMost:
-            return "≤ ";
-        case RatioRelation::AtLeast:
-            return "≥ ";
-        case RatioRelation::Equal:
-            break;
-    }
-    return "";
+std::string_view relation_prefix(RatioRelation relation) {
+    static constexpr EnumNames<RatioRelation, 3> kPrefixes{{{
+        {RatioRelation::Equal, ""},
+        {RatioRelation::AtMost, "≤ "},
+        {RatioRelation::AtLeast, "≥ "},
+    }}};
+    return kPrefixes.name(relation, "");
 }
 
-const char* relation_name(RatioRelation relation) {
-    switch (relation) {
-        case RatioRelation::AtMost:
-            return "at most";
-        case RatioRelation::AtLeast:
-            return "at least";
-        case RatioRelation::Equal:
-            break;
-    }
-    return "equal";
+std::string_view relation_name(RatioRelation relation) {
+    static constexpr EnumNames<RatioRelation, 3> kNames{{{
+        {RatioRelation::Equal, "equal"},
+        {RatioRelation::AtMost, "at most"},
+        {RatioRelation::AtLeast, "at least"},
+    }}};
+    return kNames.name(relation);
 }
 
 }  // namespace mrt

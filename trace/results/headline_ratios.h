@@ -18,6 +18,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace mrt {
@@ -61,12 +62,12 @@ RatioRelation relation_of(TimeToErrorKind kind);
 
 /// How a time_to_error or rmse_at_time answer was obtained, in words: "measured",
 /// "interpolated between two runs", "even its fastest run is more accurate", "no run reaches it".
-const char* how_of(TimeToErrorKind kind);
+std::string_view how_of(TimeToErrorKind kind);
 
 /// What goes before the value: "" for a value, "≤ " or "≥ " for a bound.
-const char* relation_prefix(RatioRelation relation);
+std::string_view relation_prefix(RatioRelation relation);
 
 /// The relation as results.json writes it: "equal", "at most" or "at least".
-const char* relation_name(RatioRelation relation);
+std::string_view relation_name(RatioRelation relation);
 
 }  // namespace mrt

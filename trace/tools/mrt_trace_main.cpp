@@ -183,9 +183,8 @@ mrt::ConeOptions cone_options(const Arguments& args) {
     cone.traversal.blend_levels = !args.no_level_blend;
     cone.traversal.node_frames = args.node_frames;
     cone.traversal.cull_closed_back_faces = !args.keep_back_faces;
-    cone.traversal.triangle_weight = args.triangle_weight == "paper"
-                                         ? mrt::TriangleWeight::Paper
-                                         : mrt::TriangleWeight::Coverage;
+    // CLI11 checked the name against the same table.
+    cone.traversal.triangle_weight = *mrt::kTriangleWeightNames.find(args.triangle_weight);
     cone.traversal.max_anisotropy = args.max_anisotropy;
     cone.time_budget =
         args.time_budget > 0.0
@@ -408,13 +407,13 @@ int main(int argc, char** argv) {
                    "Texture filtering (Igehy 1999): none (bilinear, full resolution), distance "
                    "(mip level from the distance travelled), trilinear (isotropic, from the ray "
                    "differentials) or anisotropic (from the differentials' parallelogram)")
-        ->check(CLI::IsMember({"none", "distance", "trilinear", "anisotropic"}))
+        ->check(CLI::IsMember(mrt::kTextureFilterNames.names()))
         ->default_val("anisotropic");
     app.add_option("--differentials", args.differentials,
                    "Which rays carry ray differentials: when-read (where a texture filter reads "
                    "them) or always (every ray at every hit; with --texture-filter none this "
                    "measures what carrying them costs)")
-        ->check(CLI::IsMember({"when-read", "always"}))
+        ->check(CLI::IsMember(mrt::kDifferentialsNames.names()))
         ->default_val("when-read");
     app.add_option("--width", args.width, "Image width (default: the scene camera's)")
         ->check(CLI::Range(1, 65536));
@@ -449,7 +448,7 @@ int main(int argc, char** argv) {
     app.add_option("--triangle-weight", args.triangle_weight,
                    "cone methods: coverage (the footprint Gaussian's mass over the triangle) or "
                    "paper (exp(-(d-1/2)^2) of the closest point's distance, 4.5)")
-        ->check(CLI::IsMember({"coverage", "paper"}))
+        ->check(CLI::IsMember(mrt::kTriangleWeightNames.names()))
         ->default_val("coverage");
     mrt::add_budget_option(app, args.budgets);
 

@@ -14,7 +14,7 @@
 #include "common/math/quantization.h"
 #include "common/mesh/mesh_io.h"
 #include "common/mesh/procedural.h"
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 #include "tests/support/test_support.h"
 #include "trace/bvh/triangle_bvh.h"
 

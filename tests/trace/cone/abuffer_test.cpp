@@ -10,7 +10,7 @@
 #include "common/footprint/point_weight.h"
 #include "common/math/quantization.h"
 #include "common/mesh/procedural.h"
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 
 #include <gtest/gtest.h>
 

@@ -9,7 +9,7 @@
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/mesh/procedural.h"
 #include "preprocess/hierarchy_pack.h"
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 
 #include <gtest/gtest.h>
 

@@ -118,6 +118,19 @@ TEST(ComparisonReport, DerivedFiguresAreWrittenForThePages) {
     EXPECT_NEAR(s["speedup"].get<double>(), 12.5, 1e-12);
     EXPECT_TRUE(d["dominated_runs"].empty());
 
+    // The console shows the same figures.
+    std::ostringstream table;
+    mrt::print_results_table(table, c);
+    for (const char* line :
+         {"baseline: cone (first cone run), 0.5 s, RMSE 0.04\n",
+          "RMSE at the baseline's time: cone 0.04 (1×)\n",
+          "time to RMSE 0.05: whitted ≥ 0.25 s, distributed 4 s, cone ≤ 0.5 s\n",
+          "time to RMSE 0.04: whitted ≥ 0.25 s, distributed 6.25 s, cone 0.5 s\n",
+          "at RMSE 0.04: cone is 12.5× faster than distributed (0.5 s against "
+          "6.25 s)\n"}) {
+        EXPECT_TRUE(contains(table.str(), line)) << line << "\nin\n" << table.str();
+    }
+
     // Runs that equal the reference have nothing to plot.
     EXPECT_TRUE(json::parse(mrt::results_json_text(example_comparison()))["derived"].is_null());
 }

@@ -248,7 +248,7 @@ TEST(HeadlineRatios, BoundsAreSaidAndMissingRunsLeaveTheirRatioOut) {
     ASSERT_NE(reach, nullptr);
     EXPECT_EQ(reach->relation, mrt::RatioRelation::AtMost);
     EXPECT_DOUBLE_EQ(reach->value, 0.2);
-    EXPECT_STREQ(mrt::relation_prefix(reach->relation), "≤ ");
+    EXPECT_EQ(mrt::relation_prefix(reach->relation), "≤ ");
     EXPECT_EQ(find(ratios, "distributed_rmse_at_cone_time"), nullptr)
         << "no run near cone's 2 s, and 2 s is beyond the slowest";
     const auto* primary = find(ratios, "classic_over_cone_primary");

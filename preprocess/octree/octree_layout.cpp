@@ -1,4 +1,4 @@
-#include "preprocess/octree_layout.h"
+#include "preprocess/octree/octree_layout.h"
 
 #include <fmt/format.h>
 

@@ -2,11 +2,11 @@
 // The prefilter of Wand & Straßer §3.2, shared by the mesh octrees and the instance trees: dense
 // samples of a surface, each carrying the material it stands for, averaged with a Gaussian of
 // one voxel side (σ, cut at 2.5σ) around the centre of every chosen voxel of a node's k³ grid.
-// The normal gradient is fitted to the samples' normals (preprocess/normal_gradient.h).
+// The normal gradient is fitted to the samples' normals (preprocess/octree/normal_gradient.h).
 
 #include "common/math/math.h"
-#include "preprocess/point_octree.h"
-#include "preprocess/triangle_sampling.h"
+#include "preprocess/octree/point_octree.h"
+#include "preprocess/octree/triangle_sampling.h"
 
 #include <cstdint>
 #include <span>

@@ -5,7 +5,7 @@
 // average on a checkerboard, a flat surface's points report full coverage, and the result is
 // the same for any number of threads.
 
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 #include "common/mesh/mesh_io.h"
 #include "common/mesh/procedural.h"
 #include "tests/support/test_support.h"

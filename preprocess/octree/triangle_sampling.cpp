@@ -1,4 +1,4 @@
-#include "preprocess/triangle_sampling.h"
+#include "preprocess/octree/triangle_sampling.h"
 
 #include "common/math/random.h"
 

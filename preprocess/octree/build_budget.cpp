@@ -1,4 +1,4 @@
-#include "preprocess/build_budget.h"
+#include "preprocess/octree/build_budget.h"
 
 #include <algorithm>
 

@@ -11,13 +11,13 @@
 // with a Gaussian of one voxel side (σ, cut at 2.5σ) around each point —
 // materials, textures (the texture at each sample's uv, so a point's colour is the texture
 // averaged over its Gaussian), normals, and the normal gradient fitted to the samples' normals
-// (preprocess/normal_gradient.h).
+// (preprocess/octree/normal_gradient.h).
 
 #include "common/math/math.h"
 #include "common/mesh/mesh.h"
 #include "common/scene/scene.h"
 #include "common/system/budgets.h"
-#include "preprocess/triangle_sampling.h"
+#include "preprocess/octree/triangle_sampling.h"
 
 #include <array>
 #include <cstdint>

@@ -14,7 +14,7 @@
 #include "common/mesh/mesh_io.h"
 #include "common/mesh/procedural.h"
 #include "common/system/stopwatch.h"
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 #include "tests/support/test_support.h"
 
 #include <fmt/format.h>

@@ -1,12 +1,12 @@
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 
 #include "common/system/error.h"
 #include "common/system/progress.h"
 #include "common/texture/texture.h"
-#include "preprocess/build_budget.h"
-#include "preprocess/octree_layout.h"
-#include "preprocess/surface_prefilter.h"
-#include "preprocess/triangle_sampling.h"
+#include "preprocess/octree/build_budget.h"
+#include "preprocess/octree/octree_layout.h"
+#include "preprocess/octree/surface_prefilter.h"
+#include "preprocess/octree/triangle_sampling.h"
 
 #include <tbb/parallel_for.h>
 

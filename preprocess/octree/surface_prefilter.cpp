@@ -1,9 +1,9 @@
-#include "preprocess/surface_prefilter.h"
+#include "preprocess/octree/surface_prefilter.h"
 
 #include "common/math/invertibility.h"
 #include "common/texture/texture.h"
-#include "preprocess/normal_gradient.h"
-#include "preprocess/triangle_sampling.h"
+#include "preprocess/octree/normal_gradient.h"
+#include "preprocess/octree/triangle_sampling.h"
 
 #include <tbb/parallel_for.h>
 

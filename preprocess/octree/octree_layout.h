@@ -3,7 +3,7 @@
 // construction, the cube of a box, and the breadth-first layout the hierarchy file stores.
 
 #include "common/math/math.h"
-#include "preprocess/point_octree.h"
+#include "preprocess/octree/point_octree.h"
 
 #include <array>
 #include <memory>

@@ -9,7 +9,7 @@
 // for the model's nonlinearity, plus 1e-4 relative for float input, double sums and n̄'s
 // quantization (its ≤ 4.35e-5 rad tilt changes the slope by a relative O(tilt)).
 
-#include "preprocess/normal_gradient.h"
+#include "preprocess/octree/normal_gradient.h"
 #include "common/math/quantization.h"
 
 #include "tests/support/test_support.h"

@@ -1,4 +1,4 @@
-#include "preprocess/normal_gradient.h"
+#include "preprocess/octree/normal_gradient.h"
 
 #include "common/math/quantization.h"
 

@@ -10,6 +10,7 @@
 // (docs/preprocess-sampling.md).
 
 #include "common/math/math.h"
+#include "common/system/enum_names.h"
 
 #include <cstdint>
 
@@ -20,6 +21,12 @@ enum class TriangleSampling {
     LowDiscrepancy,  ///< Rotated R2 sequence: even spread, error falling about as 1/n.
     Random,          ///< Independent uniform points (as in the paper): error falling as 1/√n.
 };
+
+/// mrt-preprocess --sampling's names, also written to the file's build record.
+inline constexpr EnumNames<TriangleSampling, 2> kTriangleSamplingNames{{{
+    {TriangleSampling::LowDiscrepancy, "low-discrepancy"},
+    {TriangleSampling::Random, "random"},
+}}};
 
 /// Barycentric coordinates (b1, b2) of sample `index` of the sequence chosen by `key`;
 /// the point is (1 − b1 − b2)·p0 + b1·p1 + b2·p2, uniformly distributed over the area.
