@@ -156,6 +156,14 @@ SurfaceDifferential triangle_differential(const Vec3f p[3], const Vec3f n[3], co
     return s;
 }
 
+float largest_singular_value(const Mat2f& m) {
+    const float a = m.col(0).squaredNorm();
+    const float c = m.col(1).squaredNorm();
+    const float b = m.col(0).dot(m.col(1));
+    const float half_difference = 0.5f * (a - c);
+    return std::sqrt(0.5f * (a + c) + std::hypot(half_difference, b));
+}
+
 SymmetricEigen2 symmetric_eigen2(float a, float b, float c) {
     SymmetricEigen2 e;
     if (!std::isfinite(a) || !std::isfinite(b) || !std::isfinite(c)) {

@@ -116,6 +116,10 @@ struct SymmetricEigen2 {
 };
 SymmetricEigen2 symmetric_eigen2(float a, float b, float c);
 
+/// ‖M‖₂, the largest singular value of a 2×2 matrix: the square root of the larger eigenvalue
+/// of MᵀM, in closed form (how far M can stretch a unit vector).
+float largest_singular_value(const Mat2f& m);
+
 /// The inverse of a 2×2 footprint matrix F (ray u/v offsets per pixel offset) and |det F|, the
 /// area of F's unit-disc ellipse over π (ray u/v units²). The determinant is an FMA-compensated
 /// difference of products, so nearly collinear columns do not cancel it to a wrong sign or size.

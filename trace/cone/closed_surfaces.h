@@ -44,7 +44,11 @@ struct ClosedSurface {
     /// `apex`.
     bool back_facing(const Vec3f& point, const Vec3f& normal, const Vec3f& apex,
                      float margin) const {
-        return outward * normal.dot(point - apex) > margin * normal.norm();
+        return back_facing(normal.dot(point - apex), normal.norm(), margin);
+    }
+    /// The same from n·(point − apex) and |n|, for a caller that has them (in a ray's frame).
+    bool back_facing(float normal_dot_apart, float normal_length, float margin) const {
+        return outward * normal_dot_apart > margin * normal_length;
     }
 };
 

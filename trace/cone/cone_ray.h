@@ -73,29 +73,34 @@ struct ConePointHit {
 inline constexpr float kPlaneDepthCosine = 0.1f;
 inline constexpr float kPlaneDepthBlend = 0.2f;
 
-/// The surfel at `position` (on the surface: common/hierarchy/hierarchy_file.h point_position) with
-/// unit `normal` and decoded `coverage`, weighed with `frame` (point_weight_frame of the footprint
-/// at the node's depth and its spacing); nothing when it lies before t_min or outside the clip.
-inline std::optional<ConePointHit> intersect_cone_point(const ConeRay& ray,
-                                                        const PointWeightFrame& frame,
-                                                        const Vec3f& position, const Vec3f& normal,
-                                                        float coverage, float t_min) {
-    const VertexInRayFrame p = ray.frame_of(position);
+/// A unit normal in the coordinates of a ray cone: its component along the unit direction (n·d)
+/// and along the cone's u and v axes.
+struct NormalInRayFrame {
+    float along = 0.0f;
+    Vec2f across = Vec2f::Zero();
+};
+
+/// The surfel at `p` (its position on the surface, common/hierarchy/hierarchy_file.h
+/// point_position, in ray coordinates) with unit normal `n` and decoded `coverage`, weighed with
+/// `frame` (point_weight_frame of the footprint at the node's depth and its spacing); nothing
+/// when it lies before t_min or outside the clip. The traversal's form: it has the point in ray
+/// coordinates already.
+inline std::optional<ConePointHit> intersect_cone_point(const PointWeightFrame& frame,
+                                                        const VertexInRayFrame& p,
+                                                        const NormalInRayFrame& n, float coverage,
+                                                        float t_min) {
     if (!(p.t >= t_min)) {
         return std::nullopt;
     }
-    const float cosine = normal.dot(ray.direction);
-    const float weight = point_weight(frame, p.offset, cosine, coverage);
+    const float weight = point_weight(frame, p.offset, n.along, coverage);
     if (!(weight > 0.0f)) {
         return std::nullopt;
     }
     // The tangent plane n·(x − p) = 0 meets the axis o + t·d at t = p.t + (n_uv·offset)/(n·d).
-    const float c = std::abs(cosine);
+    const float c = std::abs(n.along);
     float t = p.t;
     if (c > kPlaneDepthCosine) {
-        const float plane =
-            p.t + (normal.dot(ray.cone.u) * p.offset.x() + normal.dot(ray.cone.v) * p.offset.y()) /
-                      cosine;
+        const float plane = p.t + n.across.dot(p.offset) / n.along;
         const float s = std::min(1.0f, (c - kPlaneDepthCosine) / kPlaneDepthBlend);
         t = p.t + s * s * (3.0f - 2.0f * s) * (plane - p.t);
     }
@@ -103,6 +108,17 @@ inline std::optional<ConePointHit> intersect_cone_point(const ConeRay& ray,
         return std::nullopt;
     }
     return ConePointHit{t, weight};
+}
+
+/// The same for a surfel at `position` with unit `normal`, both in the ray's space.
+inline std::optional<ConePointHit> intersect_cone_point(const ConeRay& ray,
+                                                        const PointWeightFrame& frame,
+                                                        const Vec3f& position, const Vec3f& normal,
+                                                        float coverage, float t_min) {
+    return intersect_cone_point(
+        frame, ray.frame_of(position),
+        {normal.dot(ray.direction), Vec2f(normal.dot(ray.cone.u), normal.dot(ray.cone.v))},
+        coverage, t_min);
 }
 
 }  // namespace mrt

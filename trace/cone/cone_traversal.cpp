@@ -19,11 +19,11 @@ namespace {
 
 /// The clip ellipse's radius in the units of the point weight's Gaussian (√ln 50).
 constexpr float kClipRadius = 1.977883f;
-/// A voxel centre beyond the clip ellipse by more than the largest stored surface offset can
-/// move it (a voxel side h, through G⁻¹, whose norm is at most 1/(β·h)) holds no point a cone
-/// weighs: rejected before its normal is decoded. Squared, in the Gaussian's units.
-constexpr float kCentreReachSquared =
-    (kClipRadius + 1.0f / kPointKernelRadius) * (kClipRadius + 1.0f / kPointKernelRadius);
+/// Added to the clip radius where points and their clusters are culled before they are weighed,
+/// in the Gaussian's units: their positions there are computed along another path than the
+/// clusters' bounds were (rounding of a few ulps of the coordinates). A point it lets through
+/// weighs at most the clip's 2 %, and is weighed exactly.
+constexpr float kClipCullMargin = 1e-3f;
 /// Where the tangent of the angle between a ray and a surface stops widening a point's depth
 /// tolerance: a point's own extent is half a voxel, and a wider interval from the (nearly
 /// weightless) points a closed object shows edge-on would glue its front and back into one
@@ -87,6 +87,8 @@ struct ConeSpace {
     std::uint32_t id = 0;      ///< Unique within one traversal: keys the per-vertex frame cache.
     std::uint32_t object = 0;  ///< The object whose nodes the cone is in.
     float start = 0.0f;        ///< How far from the apex the cone's rays start (start_radius).
+    /// The sphere tests' view of `ray.cone`, prepared once per space.
+    ConeSphereTest bounds;
 };
 
 /// How far from the apex a cone's rays start: its footprint at t = 0.
@@ -96,7 +98,8 @@ float start_radius(const FootprintCone& cone) {
 }
 
 /// The cone of `parent` (in a group's space) in the space of an instance's object.
-ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f& normal_to_group) {
+ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f& normal_to_group,
+                float max_anisotropy) {
     ConeSpace space;
     const Mat3f linear = to_object.linear();
     const Vec3f direction = linear * parent.ray.direction;
@@ -116,6 +119,7 @@ ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f&
     cone.blur_start = b * from.blur_start;
     cone.blur_incr = b * from.blur_incr / scale;
     space.start = start_radius(cone);
+    space.bounds = ConeSphereTest(cone, max_anisotropy);
     space.world_per_t = parent.world_per_t / scale;
     space.normal_to_world = parent.normal_to_world * normal_to_group;
     space.to_object = linear * parent.to_object;
@@ -187,8 +191,7 @@ class Walk {
         look.sphere = space.ray.sphere_of(to_vec(node.sphere_centre), node.sphere_radius);
         const FootprintCone& cone = space.ray.cone;
         const float widening = kPointKernelRadius * spacing(node);
-        if (!cone_circle_may_touch_sphere(look.sphere, cone, m_options.max_anisotropy, widening,
-                                          look.t_min, look.t_max)) {
+        if (!space.bounds.circle_may_touch(look.sphere, widening, look.t_min, look.t_max)) {
             return false;
         }
         if ((look.sphere.t - look.sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
@@ -199,8 +202,8 @@ class Walk {
         const float t = std::clamp(look.sphere.t, look.t_min, look.t_max);
         const Mat2f footprint = cone.at(t);
         look.ellipse = FootprintCone::ellipse_of(footprint);
-        if (!cone_rectangle_may_touch_sphere(look.sphere, cone, m_options.max_anisotropy, widening,
-                                             look.t_min, look.t_max, look.ellipse.major_axis)) {
+        if (!space.bounds.rectangle_may_touch(look.sphere, widening, look.t_min, look.t_max,
+                                              look.ellipse.major_axis)) {
             return false;
         }
         ++m_stats.nodes_visited;
@@ -275,7 +278,8 @@ class Walk {
         for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
              ++i) {
             ++m_stats.instances_entered;
-            ConeSpace inner = enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i));
+            ConeSpace inner = enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i),
+                                    m_options.max_anisotropy);
             inner.id = ++m_spaces;
             object(inner, m_view.instances[i].object, weight);
         }
@@ -316,15 +320,20 @@ class Walk {
     static bool leaves(const ConeSpace& space, const Vec3f& position, const Vec3f& normal,
                        float tolerance, float size, bool near_apex = true) {
         const Vec3f apart = space.ray.origin - position;
-        const float distance = std::abs(normal.dot(apart));
-        if (distance <= tolerance) {
+        return leaves(space, std::abs(normal.dot(apart)), apart.squaredNorm(), tolerance, size,
+                      near_apex);
+    }
+    /// The same from the plane's distance to the apex and the primitive's squared distance.
+    static bool leaves(const ConeSpace& space, float plane_distance, float squared_distance,
+                       float tolerance, float size, bool near_apex = true) {
+        if (plane_distance <= tolerance) {
             return true;
         }
         if (!near_apex) {
             return false;
         }
         const float near = size + kNearApex * space.start;
-        return distance <= space.start && apart.squaredNorm() <= near * near;
+        return plane_distance <= space.start && squared_distance <= near * near;
     }
 
     /// Whether a cluster's sphere may hold something within `reach` of the axis (a circle
@@ -369,12 +378,15 @@ class Walk {
                 closed = nullptr;
             }
         }
-        // In the Gaussian's units a cluster's sphere (around its points' positions, which lie
-        // within half a voxel of their voxels' centres) stretches by at most ‖G⁻¹‖ (bounded by
-        // the Frobenius norm): the circle around the clip ellipse passes a long thin cone's
-        // clusters along its minor axis, this test does not.
-        const float stretch = frame.inverse.norm();
-        const float centre_reach = std::sqrt(kCentreReachSquared);
+        // In the Gaussian's units a cluster's sphere (around its points' positions) stretches by
+        // at most ‖G⁻¹‖₂: the circle around the clip ellipse passes a long thin cone's clusters
+        // along its minor axis, this test does not. A voxel centre moves by its point's stored
+        // offset along the normal, at most |offset|·h·‖G⁻¹‖₂.
+        const float stretch = largest_singular_value(frame.inverse) * (1.0f + kBoundRelativeMargin);
+        const float clip = kClipRadius + kClipCullMargin;
+        const float offset_stretch = h * stretch / 127.0f;  // per step of the offset's code
+        const VoxelsInRayFrame voxels(space.ray, frame, origin, h);
+        const ClosedSurface* solid = m_geometry.closed_surfaces().of_object(space.object);
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
@@ -383,43 +395,91 @@ class Walk {
             if (!may_hold(space, cluster, l, clip_reach, centre)) {
                 continue;
             }
-            const float reach = centre_reach + (cluster.radius + 0.5f * h) * stretch;
+            const float reach = clip + cluster.radius * stretch;
             if (!((frame.inverse * centre.offset).squaredNorm() <= reach * reach)) {
                 continue;
             }
             for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
-                point(space, node, m_geometry.point_order(j), frame, l, origin, h, weight, closed);
+                point(space, m_geometry.point_order(j), frame, voxels, clip, offset_stretch, l, h,
+                      weight, closed, solid);
             }
         }
     }
 
-    void point(const ConeSpace& space, const HierarchyNode& node, std::uint32_t i,
-               const PointWeightFrame& frame, const Look& l, const Vec3f& origin, float h,
-               float weight, const ClosedSurface* closed) {
+    /// A node's voxel centres in ray coordinates and in the point weight's Gaussian ones, affine
+    /// in the voxel's indices: a few multiply-adds per point instead of decoding its centre and
+    /// projecting it.
+    struct VoxelsInRayFrame {
+        VertexInRayFrame first;                ///< The centre of voxel (0, 0, 0).
+        std::array<VertexInRayFrame, 3> step;  ///< One voxel along x, y, z.
+        Vec2f first_gaussian;                  ///< G⁻¹·first.offset.
+        std::array<Vec2f, 3> step_gaussian;    ///< G⁻¹·step[i].offset.
+
+        VoxelsInRayFrame(const ConeRay& ray, const PointWeightFrame& frame, const Vec3f& origin,
+                         float h) {
+            first = ray.frame_of(origin + Vec3f::Constant(0.5f * h));
+            first_gaussian = frame.inverse * first.offset;
+            for (int a = 0; a < 3; ++a) {
+                const std::size_t i = static_cast<std::size_t>(a);
+                step[i] = {h * ray.direction[a], h * Vec2f(ray.cone.u[a], ray.cone.v[a])};
+                step_gaussian[i] = frame.inverse * step[i].offset;
+            }
+        }
+        Vec2f gaussian(const VoxelCode& code) const {
+            return first_gaussian + static_cast<float>(code[0]) * step_gaussian[0] +
+                   static_cast<float>(code[1]) * step_gaussian[1] +
+                   static_cast<float>(code[2]) * step_gaussian[2];
+        }
+        VertexInRayFrame centre(const VoxelCode& code) const {
+            VertexInRayFrame c = first;
+            for (std::size_t a = 0; a < 3; ++a) {
+                const float i = static_cast<float>(code[a]);
+                c.t += i * step[a].t;
+                c.offset += i * step[a].offset;
+            }
+            return c;
+        }
+    };
+
+    /// Point i of a node of spacing h. A point whose voxel centre lies beyond `clip` (in the
+    /// Gaussian's units) by more than its offset along the normal can move it (`offset_stretch`
+    /// per step of its code) is rejected before its normal is decoded. `closed` is the solid
+    /// whose back the cone cannot see (nullptr: none), `solid` the closed surface of the node's
+    /// object whatever the cone.
+    void point(const ConeSpace& space, std::uint32_t i, const PointWeightFrame& frame,
+               const VoxelsInRayFrame& voxels, float clip, float offset_stretch, const Look& l,
+               float h, float weight, const ClosedSurface* closed, const ClosedSurface* solid) {
         ++m_stats.points_tested;
         const PointCore& core = m_view.core[i];
-        const PointOffset offset = m_view.offset[i];
-        const Vec3f centre = decode_voxel(core.voxel, origin, node.side, m_view.grid);
-        if (!((frame.inverse * space.ray.frame_of(centre).offset).squaredNorm() <=
-              kCentreReachSquared)) {
+        const std::int8_t offset_code = m_view.offset[i].along_normal;
+        const float reach = clip + offset_stretch * std::abs(static_cast<float>(offset_code));
+        if (!(voxels.gaussian(core.voxel).squaredNorm() <= reach * reach)) {
             return;
         }
         const Vec3f normal = decode_normal(core.normal);
-        const Vec3f position = point_position(centre, h, normal, offset);
-        if (closed != nullptr &&
-            closed->back_facing(position, normal, space.ray.origin, space.start)) {
+        const NormalInRayFrame n{normal.dot(space.ray.direction),
+                                 Vec2f(normal.dot(space.ray.cone.u), normal.dot(space.ray.cone.v))};
+        // The point on the surface: its voxel's centre moved along the normal (point_position).
+        const float along_normal = decode_offset8(offset_code) * h;
+        VertexInRayFrame p = voxels.centre(core.voxel);
+        p.t += along_normal * n.along;
+        p.offset += along_normal * n.across;
+        // n·(p − apex), the signed distance of the apex from the point's tangent plane (times
+        // |n|, which decoding keeps within 2 ulps of 1).
+        const float plane = p.t * n.along + p.offset.dot(n.across);
+        if (closed != nullptr && closed->back_facing(plane, normal.norm(), space.start)) {
             ++m_stats.back_faces_culled;
             return;
         }
-        if (l.t_min > 0.0f &&
-            !enters_solid(space, m_geometry.closed_surfaces().of_object(space.object), normal) &&
-            leaves(space, position, normal, kCoplanarPoint * h, 2.0f * h)) {
+        if (l.t_min > 0.0f && !enters_solid(space, solid, normal) &&
+            leaves(space, std::abs(plane), p.t * p.t + p.offset.squaredNorm(), kCoplanarPoint * h,
+                   2.0f * h)) {
             // As for triangles: the surface a cone leaves is not met again by the points that
             // stand for it (a coarse level's points reach far across the start).
             return;
         }
-        const auto hit = intersect_cone_point(space.ray, frame, position, normal,
-                                              decode_coverage8(core.coverage), l.t_min);
+        const auto hit =
+            intersect_cone_point(frame, p, n, decode_coverage8(core.coverage), l.t_min);
         if (!hit || hit->t > l.t_max) {
             return;
         }
@@ -428,9 +488,8 @@ class Walk {
         // ConePointHit), up to the curvature across the footprint; half a voxel, more where the
         // surface is slanted, keeps a closed object's front and back (a few voxels apart at the
         // level its cone uses) in fragments of their own.
-        const float tolerance = 0.5f * h *
-                                (1.0f + 0.5f * grazing_tangent(normal.dot(space.ray.direction),
-                                                               kPointToleranceTangent));
+        const float tolerance =
+            0.5f * h * (1.0f + 0.5f * grazing_tangent(n.along, kPointToleranceTangent));
         if constexpr (kShade) {
             m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
                             weight * hit->weight, point_surface(space, i, normal));
@@ -495,8 +554,8 @@ class Walk {
         if (varies) {
             const float near = std::max(l.sphere.t - l.sphere.radius, l.t_min);
             const float far = std::min(l.sphere.t + l.sphere.radius, l.t_max);
-            reach = units * std::sqrt(std::max(space.ray.cone.at(near).squaredNorm(),
-                                               space.ray.cone.at(far).squaredNorm()));
+            reach = units * std::sqrt(std::max(space.bounds.frobenius_squared(near),
+                                               space.bounds.frobenius_squared(far)));
         }
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_triangle_cluster;
@@ -848,6 +907,7 @@ void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffe
     ConeSpace world;
     world.ray = ray;
     world.start = start_radius(ray.cone);
+    world.bounds = ConeSphereTest(ray.cone, m_options.max_anisotropy);
     Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max);
     walk.object(world, m_geometry.view().world_object, 1.0f);
 }

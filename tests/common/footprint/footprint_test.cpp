@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 
 #include <array>
 #include <cmath>
@@ -118,6 +119,26 @@ void expect_matches_finite_differences(const std::function<PathEnd(double, doubl
         EXPECT_LT((d - dd).norm() / scale_d, tolerance)
             << axis << " dd " << dd.transpose() << " vs " << d.transpose();
     }
+}
+
+TEST(LargestSingularValue, MatchesADoublePrecisionSvd) {
+    // Random matrices over twelve orders of magnitude, nearly singular and nearly collinear ones,
+    // against Eigen's SVD in double.
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int i = 0; i < 10000; ++i) {
+        Mat2f m;
+        m << unit(rng), unit(rng), unit(rng), unit(rng);
+        if (i % 3 == 1) {
+            m.col(1) = m.col(0) * (1.0f + 1e-4f * unit(rng));
+        }
+        m *= std::pow(10.0f, 6.0f * unit(rng));
+        const double expected =
+            Eigen::JacobiSVD<Eigen::Matrix2d>(m.cast<double>()).singularValues()(0);
+        ASSERT_NEAR(largest_singular_value(m), expected, 1e-6 * expected) << m;
+    }
+    EXPECT_EQ(largest_singular_value(Mat2f::Zero()), 0.0f);
+    EXPECT_FLOAT_EQ(largest_singular_value(Mat2f(Eigen::Vector2f(3.0f, -0.5f).asDiagonal())), 3.0f);
 }
 
 TEST(RayDifferential, TransferOntoAPlaneMatchesFiniteDifferences) {

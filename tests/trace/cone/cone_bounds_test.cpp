@@ -314,6 +314,50 @@ TEST(ConeBounds, RespectsTheDepthRangeAndThePinholeApex) {
         cone_may_touch_sphere({1e12f, Vec2f(1e11f, 0.0f), 1.0f}, cone, 8.0f, 0.0f, 0.0f, 2e12f));
 }
 
+TEST(ConeBounds, PerConeFrobeniusBoundHoldsAndStaysTight) {
+    // The per-cone quadratic must bound ‖F(t)‖_F² + ‖B(t)‖_F² from above at every depth, also
+    // where a focusing cone narrows to a point and the quadratic's terms cancel, and exceed it
+    // by no more than its rounding margin.
+    std::mt19937_64 rng(17);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int i = 0; i < 20000; ++i) {
+        Case c = random_case(rng);
+        if (i % 2 == 1) {
+            Mat2f start;
+            Mat2f incr;
+            start << unit(rng), unit(rng), unit(rng), unit(rng);
+            incr << unit(rng), unit(rng), unit(rng), unit(rng);
+            c.cone.add_blur(0.01f * start, 0.01f * incr);
+        }
+        const ConeSphereTest test(c.cone, c.max_anisotropy);
+        const auto exact = [&](double t) {
+            const Eigen::Matrix2d f =
+                c.cone.start_dev.cast<double>() + t * c.cone.incr_dev.cast<double>();
+            const Eigen::Matrix2d b =
+                c.cone.blur_start.cast<double>() + t * c.cone.blur_incr.cast<double>();
+            return f.squaredNorm() + (c.cone.blurred ? b.squaredNorm() : 0.0);
+        };
+        const auto magnitude = [&](double t) {
+            const double s = c.cone.start_dev.cast<double>().norm() +
+                             std::abs(t) * c.cone.incr_dev.cast<double>().norm();
+            const double b = c.cone.blur_start.cast<double>().norm() +
+                             std::abs(t) * c.cone.blur_incr.cast<double>().norm();
+            return s * s + b * b;
+        };
+        for (const float t : {0.0f, 0.37f, 1.0f, 3.3f, 9.99f, 25.0f, -1.0f}) {
+            const double bound = test.frobenius_squared(t);
+            ASSERT_GE(bound, exact(t)) << "t " << t << " case " << i;
+            ASSERT_LE(bound, exact(t) + 1e-5 * magnitude(t)) << "t " << t << " case " << i;
+        }
+        // At the focus itself, where the exact value is (nearly) zero.
+        const float focus =
+            c.cone.incr_dev(0, 0) != 0.0f ? -c.cone.start_dev(0, 0) / c.cone.incr_dev(0, 0) : 0.0f;
+        if (std::isfinite(focus)) {
+            ASSERT_GE(test.frobenius_squared(focus), exact(focus)) << "case " << i;
+        }
+    }
+}
+
 TEST(ConeBounds, DamagedInputNeverHidesGeometry) {
     FootprintCone cone;
     cone.incr_dev = 0.01f * Mat2f::Identity();
