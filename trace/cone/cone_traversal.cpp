@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <ostream>
@@ -578,10 +579,12 @@ class Walk {
             }
             // The circle around the cull's ellipse (of the frame the triangle loop culls with).
             const float triangle_reach = (per_vertex ? kCullMargin : 1.0f) * units * cluster_radius;
-            for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
-                if (!may_hold(space, m_geometry.triangle_bound(j), l, triangle_reach)) {
-                    continue;
-                }
+            for (std::uint32_t near =
+                     spheres_near_axis(m_geometry.triangle_bounds(c), cluster.count, space.ray,
+                                       triangle_reach, l.t_min, l.t_max);
+                 near != 0; near &= near - 1) {
+                const std::uint32_t j =
+                    cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));
                 triangle(space, m_geometry.triangle_order(j), l, per_vertex, frames, cluster_radius,
                          weight);
             }
@@ -849,7 +852,6 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
     m_node_clusters.resize(m_view.nodes.size());
     m_point_order.reserve(m_view.core.size());
     m_triangle_order.reserve(m_view.node_triangles.size());
-    m_triangle_bounds.reserve(m_view.node_triangles.size());
     std::vector<std::uint32_t> items;
     for (std::size_t n = 0; n < m_view.nodes.size(); ++n) {
         const HierarchyNode& node = m_view.nodes[n];
@@ -883,15 +885,22 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                 {(vertex(t, 0) - m).norm(), (vertex(t, 1) - m).norm(), (vertex(t, 2) - m).norm()});
         };
         c.first_triangle_cluster = static_cast<std::uint32_t>(m_triangle_clusters.size());
-        const std::size_t first_ordered = m_triangle_order.size();
         cluster(node, items, centroid, extent, m_triangle_clusters, m_triangle_order);
         c.triangle_cluster_count =
             static_cast<std::uint32_t>(m_triangle_clusters.size()) - c.first_triangle_cluster;
-        for (std::size_t j = first_ordered; j < m_triangle_order.size(); ++j) {
-            const std::uint32_t t = m_triangle_order[j];
-            const Vec3f m = centroid(t);
-            // Rounding of the centre and of the ray frame's offsets: a relative margin.
-            m_triangle_bounds.push_back({{m.x(), m.y(), m.z()}, padded_bound(extent(t))});
+        for (std::uint32_t k = c.first_triangle_cluster;
+             k < c.first_triangle_cluster + c.triangle_cluster_count; ++k) {
+            const ConeCluster& run = m_triangle_clusters[k];
+            ConeBoundBlock& block = m_triangle_bounds.emplace_back();
+            for (std::uint32_t i = 0; i < run.count; ++i) {
+                const std::uint32_t t = m_triangle_order[run.first + i];
+                const Vec3f m = centroid(t);
+                block.x[i] = m.x();
+                block.y[i] = m.y();
+                block.z[i] = m.z();
+                // Rounding of the centre and of the ray frame's offsets: a relative margin.
+                block.radius[i] = padded_bound(extent(t));
+            }
         }
     }
 }

@@ -35,6 +35,7 @@
 #include "common/texture/texture.h"
 #include "trace/cone/abuffer.h"
 #include "trace/cone/closed_surfaces.h"
+#include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_ray.h"
 #include "trace/cone/cone_surface.h"
 #include "trace/cone/cone_triangle.h"
@@ -130,15 +131,6 @@ struct ConeCluster {
 };
 static_assert(sizeof(ConeCluster) == 24);
 
-/// One kept triangle's bounding sphere, stored in triangle_order(): a cone tests it before
-/// gathering the triangle's vertices (most triangles of a cluster the cone touches are still
-/// beyond its reach).
-struct ConeTriangleBound {
-    std::array<float, 3> centre;
-    float radius;
-};
-static_assert(sizeof(ConeTriangleBound) == 16);
-
 /// A node's clusters: [first, first + count) of the point or triangle clusters.
 struct ConeNodeClusters {
     std::uint32_t first_point_cluster = 0;
@@ -147,9 +139,6 @@ struct ConeNodeClusters {
     std::uint32_t triangle_cluster_count = 0;
 };
 static_assert(sizeof(ConeNodeClusters) == 16);
-
-/// Points or triangles per cluster.
-inline constexpr std::uint32_t kConeClusterSize = 16;
 
 /// The hierarchy file prepared for tracing, read-only and shared by every thread: the file's
 /// records, each instance's inverse transform, the scene's materials and textures for the
@@ -181,8 +170,10 @@ class ConeGeometry {
     std::uint32_t point_order(std::uint32_t i) const { return m_point_order[i]; }
     /// Triangle indices (into 'TRIS'), each node's its kept triangles permuted.
     std::uint32_t triangle_order(std::uint32_t i) const { return m_triangle_order[i]; }
-    /// The bounding sphere of triangle_order(i).
-    const ConeTriangleBound& triangle_bound(std::uint32_t i) const { return m_triangle_bounds[i]; }
+    /// The bounding spheres of triangle cluster i's triangles, in their triangle_order(): a cone
+    /// tests them before gathering the triangles' vertices (most triangles of a cluster the cone
+    /// touches are still beyond its reach).
+    const ConeBoundBlock& triangle_bounds(std::uint32_t i) const { return m_triangle_bounds[i]; }
 
   private:
     HierarchyView m_view;
@@ -196,7 +187,7 @@ class ConeGeometry {
     std::vector<ConeCluster> m_triangle_clusters;
     std::vector<std::uint32_t> m_point_order;
     std::vector<std::uint32_t> m_triangle_order;
-    std::vector<ConeTriangleBound> m_triangle_bounds;
+    std::vector<ConeBoundBlock> m_triangle_bounds;
 };
 
 class ConeTraversal {

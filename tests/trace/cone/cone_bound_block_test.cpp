@@ -1,0 +1,98 @@
+// The sixteen-wide sphere test answers as one sphere's test does (a scalar reference in double,
+// with the traversal's circle test written out), for random cones, spheres around the test's
+// boundaries, unused slots and damaged input.
+
+#include "trace/cone/cone_bound_block.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+namespace mrt {
+namespace {
+
+/// One sphere's test in double: depths overlapping [t_min, t_max] and the centre within
+/// reach + radius of the axis. `margin` (relative) widens or narrows it to bracket rounding.
+bool near_axis(const ConeRay& ray, const Vec3f& centre, float radius, float reach, float t_min,
+               float t_max, double margin) {
+    const Eigen::Vector3d p = (centre - ray.origin).cast<double>();
+    const double t = p.dot(ray.direction.cast<double>());
+    const double a = p.dot(ray.cone.u.cast<double>());
+    const double b = p.dot(ray.cone.v.cast<double>());
+    const double r = radius * (1.0 + margin);
+    const double within = (reach + static_cast<double>(radius)) * (1.0 + margin);
+    return t + r >= t_min && t - r <= t_max && a * a + b * b <= within * within;
+}
+
+TEST(ConeBoundBlock, EachBitIsThatSpheresTest) {
+    std::mt19937_64 rng(23);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    int set = 0;
+    int clear = 0;
+    for (int i = 0; i < 5000; ++i) {
+        ConeRay ray;
+        ray.origin = Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f;
+        ray.direction = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
+        orthonormal_basis(ray.direction, ray.cone.u, ray.cone.v);
+        const float reach = 0.5f * (1.0f + unit(rng));
+        const float t_min = 2.0f + unit(rng);
+        const float t_max = 10.0f + 5.0f * unit(rng);
+        ConeBoundBlock block;
+        const std::uint32_t count = 1 + static_cast<std::uint32_t>(i % kConeClusterSize);
+        for (std::uint32_t k = 0; k < count; ++k) {
+            // Around the axis's reach and the depth limits, where the answers change.
+            const float t = 8.0f * (1.0f + unit(rng));
+            const Vec3f across = ray.cone.u * unit(rng) + ray.cone.v * unit(rng);
+            const Vec3f centre = ray.origin + t * ray.direction + 1.5f * across;
+            block.x[k] = centre.x();
+            block.y[k] = centre.y();
+            block.z[k] = centre.z();
+            block.radius[k] = 0.5f * (1.0f + unit(rng));
+        }
+        const std::uint32_t mask = spheres_near_axis(block, count, ray, reach, t_min, t_max);
+        for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+            const bool bit = (mask >> k) & 1u;
+            if (k >= count) {
+                ASSERT_FALSE(bit) << "unused slot " << k;
+                continue;
+            }
+            const Vec3f centre(block.x[k], block.y[k], block.z[k]);
+            // Set wherever the sphere clearly may hold something, clear wherever it clearly
+            // cannot; within rounding of the boundary either answer is right.
+            if (near_axis(ray, centre, block.radius[k], reach, t_min, t_max, -1e-4)) {
+                ASSERT_TRUE(bit) << "case " << i << " sphere " << k;
+            }
+            if (!near_axis(ray, centre, block.radius[k], reach, t_min, t_max, 1e-4)) {
+                ASSERT_FALSE(bit) << "case " << i << " sphere " << k;
+            }
+            (bit ? set : clear) += 1;
+        }
+    }
+    // The cases straddle the test: both answers are common.
+    EXPECT_GT(set, 5000);
+    EXPECT_GT(clear, 5000);
+}
+
+TEST(ConeBoundBlock, DamagedInputNeverClearsABit) {
+    ConeRay ray;
+    ConeBoundBlock block;
+    block.x[0] = 100.0f;  // far off the axis: cleared when everything is finite
+    block.z[0] = 5.0f;
+    block.radius[0] = 1.0f;
+    EXPECT_EQ(spheres_near_axis(block, 1, ray, 1.0f, 0.0f, 10.0f), 0u);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_EQ(spheres_near_axis(block, 1, ray, nan, 0.0f, 10.0f), 1u);
+    ConeRay broken = ray;
+    broken.direction.x() = nan;
+    broken.cone.u.x() = nan;
+    EXPECT_EQ(spheres_near_axis(block, 1, broken, 1.0f, 0.0f, 10.0f), 1u);
+    // Unused slots stay clear even where the broken ray would set them.
+    EXPECT_EQ(spheres_near_axis(block, 3, broken, 1.0f, 0.0f, 10.0f), 7u);
+    block.x[0] = nan;
+    EXPECT_EQ(spheres_near_axis(block, 1, ray, 1.0f, 0.0f, 10.0f), 1u);
+}
+
+}  // namespace
+}  // namespace mrt
