@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 
@@ -58,6 +59,51 @@ inline std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_
         mask |= inside[k] << k;
     }
     static_assert(kConeClusterSize < 32);
+    return mask & ((1u << std::min(count, kConeClusterSize)) - 1u);
+}
+
+/// The voxel codes and surface offsets (PointCore::voxel, PointOffset::along_normal) of one point
+/// cluster's points, in structure-of-arrays form: what a cone needs to reject most of them before
+/// it reads their records.
+struct alignas(64) ConeVoxelBlock {
+    std::array<std::uint8_t, kConeClusterSize> x{};
+    std::array<std::uint8_t, kConeClusterSize> y{};
+    std::array<std::uint8_t, kConeClusterSize> z{};
+    std::array<std::int8_t, kConeClusterSize> offset{};
+};
+static_assert(sizeof(ConeVoxelBlock) == 4 * kConeClusterSize);
+
+/// Where a node's voxel centres lie in the point weight's Gaussian coordinates (G⁻¹ times the
+/// offset from the cone's axis), affine in the voxel's indices.
+struct VoxelGaussian {
+    Vec2f first = Vec2f::Zero();  ///< The centre of voxel (0, 0, 0).
+    std::array<Vec2f, 3> step{};  ///< One voxel along x, y, z.
+    float clip = 0.0f;            ///< The radius a point's weight is cut at.
+    float offset_stretch = 0.0f;  ///< Per step of an offset's code: its reach.
+};
+
+/// Bit k (k < count) set when point k of `block` may lie within the clip: its voxel centre lies
+/// within `clip` plus how far its offset along the normal can move it (`offset_stretch` per step
+/// of its code). A NaN centre clears its bit, as the point's own weight would be 0.
+inline std::uint32_t voxels_within_clip(const ConeVoxelBlock& block, std::uint32_t count,
+                                        const VoxelGaussian& voxels) {
+    std::array<std::uint32_t, kConeClusterSize> inside;
+    for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+        const float i = static_cast<float>(block.x[k]);
+        const float j = static_cast<float>(block.y[k]);
+        const float l = static_cast<float>(block.z[k]);
+        const float gx = voxels.first.x() + i * voxels.step[0].x() + j * voxels.step[1].x() +
+                         l * voxels.step[2].x();
+        const float gy = voxels.first.y() + i * voxels.step[0].y() + j * voxels.step[1].y() +
+                         l * voxels.step[2].y();
+        const float reach =
+            voxels.clip + voxels.offset_stretch * std::abs(static_cast<float>(block.offset[k]));
+        inside[k] = gx * gx + gy * gy <= reach * reach ? 1u : 0u;
+    }
+    std::uint32_t mask = 0;
+    for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+        mask |= inside[k] << k;
+    }
     return mask & ((1u << std::min(count, kConeClusterSize)) - 1u);
 }
 

@@ -384,9 +384,10 @@ class Walk {
         // along its minor axis, this test does not. A voxel centre moves by its point's stored
         // offset along the normal, at most |offset|·h·‖G⁻¹‖₂.
         const float stretch = largest_singular_value(frame.inverse) * (1.0f + kBoundRelativeMargin);
-        const float clip = kClipRadius + kClipCullMargin;
         const float offset_stretch = h * stretch / 127.0f;  // per step of the offset's code
         const VoxelsInRayFrame voxels(space.ray, frame, origin, h);
+        const VoxelGaussian gaussian{voxels.first_gaussian, voxels.step_gaussian,
+                                     kClipRadius + kClipCullMargin, offset_stretch};
         const ClosedSurface* solid = m_geometry.closed_surfaces().of_object(space.object);
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
@@ -396,13 +397,17 @@ class Walk {
             if (!may_hold(space, cluster, l, clip_reach, centre)) {
                 continue;
             }
-            const float reach = clip + cluster.radius * stretch;
+            const float reach = kClipRadius + kClipCullMargin + cluster.radius * stretch;
             if (!((frame.inverse * centre.offset).squaredNorm() <= reach * reach)) {
                 continue;
             }
-            for (std::uint32_t j = cluster.first; j < cluster.first + cluster.count; ++j) {
-                point(space, m_geometry.point_order(j), frame, voxels, clip, offset_stretch, l, h,
-                      weight, closed, solid);
+            m_stats.points_tested += cluster.count;
+            for (std::uint32_t near =
+                     voxels_within_clip(m_geometry.point_voxels(c), cluster.count, gaussian);
+                 near != 0; near &= near - 1) {
+                const std::uint32_t j =
+                    cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));
+                point(space, m_geometry.point_order(j), frame, voxels, l, h, weight, closed, solid);
             }
         }
     }
@@ -426,11 +431,6 @@ class Walk {
                 step_gaussian[i] = frame.inverse * step[i].offset;
             }
         }
-        Vec2f gaussian(const VoxelCode& code) const {
-            return first_gaussian + static_cast<float>(code[0]) * step_gaussian[0] +
-                   static_cast<float>(code[1]) * step_gaussian[1] +
-                   static_cast<float>(code[2]) * step_gaussian[2];
-        }
         VertexInRayFrame centre(const VoxelCode& code) const {
             VertexInRayFrame c = first;
             for (std::size_t a = 0; a < 3; ++a) {
@@ -442,21 +442,14 @@ class Walk {
         }
     };
 
-    /// Point i of a node of spacing h. A point whose voxel centre lies beyond `clip` (in the
-    /// Gaussian's units) by more than its offset along the normal can move it (`offset_stretch`
-    /// per step of its code) is rejected before its normal is decoded. `closed` is the solid
+    /// Point i of a node of spacing h, one that voxels_within_clip kept. `closed` is the solid
     /// whose back the cone cannot see (nullptr: none), `solid` the closed surface of the node's
     /// object whatever the cone.
     void point(const ConeSpace& space, std::uint32_t i, const PointWeightFrame& frame,
-               const VoxelsInRayFrame& voxels, float clip, float offset_stretch, const Look& l,
-               float h, float weight, const ClosedSurface* closed, const ClosedSurface* solid) {
-        ++m_stats.points_tested;
+               const VoxelsInRayFrame& voxels, const Look& l, float h, float weight,
+               const ClosedSurface* closed, const ClosedSurface* solid) {
         const PointCore& core = m_view.core[i];
         const std::int8_t offset_code = m_view.offset[i].along_normal;
-        const float reach = clip + offset_stretch * std::abs(static_cast<float>(offset_code));
-        if (!(voxels.gaussian(core.voxel).squaredNorm() <= reach * reach)) {
-            return;
-        }
         const Vec3f normal = decode_normal(core.normal);
         const NormalInRayFrame n{normal.dot(space.ray.direction),
                                  Vec2f(normal.dot(space.ray.cone.u), normal.dot(space.ray.cone.v))};
@@ -869,6 +862,18 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
             [](std::uint32_t) { return 0.0f; }, m_point_clusters, m_point_order);
         c.point_cluster_count =
             static_cast<std::uint32_t>(m_point_clusters.size()) - c.first_point_cluster;
+        for (std::uint32_t k = c.first_point_cluster;
+             k < c.first_point_cluster + c.point_cluster_count; ++k) {
+            const ConeCluster& run = m_point_clusters[k];
+            ConeVoxelBlock& block = m_point_voxels.emplace_back();
+            for (std::uint32_t i = 0; i < run.count; ++i) {
+                const std::uint32_t point = m_point_order[run.first + i];
+                block.x[i] = m_view.core[point].voxel[0];
+                block.y[i] = m_view.core[point].voxel[1];
+                block.z[i] = m_view.core[point].voxel[2];
+                block.offset[i] = m_view.offset[point].along_normal;
+            }
+        }
         items.clear();
         for (std::uint32_t k = 0; k < node.triangle_count; ++k) {
             items.push_back(m_view.node_triangles[node.first_triangle + k]);

@@ -165,6 +165,8 @@ class ConeGeometry {
 
     const ConeNodeClusters& clusters(std::uint32_t node) const { return m_node_clusters[node]; }
     const ConeCluster& point_cluster(std::uint32_t i) const { return m_point_clusters[i]; }
+    /// The voxel codes and offsets of point cluster i's points, in their point_order().
+    const ConeVoxelBlock& point_voxels(std::uint32_t i) const { return m_point_voxels[i]; }
     const ConeCluster& triangle_cluster(std::uint32_t i) const { return m_triangle_clusters[i]; }
     /// Point indices (into the file's point arrays), each node's a permutation of its range.
     std::uint32_t point_order(std::uint32_t i) const { return m_point_order[i]; }
@@ -184,6 +186,7 @@ class ConeGeometry {
     ClosedSurfaces m_closed;
     std::vector<ConeNodeClusters> m_node_clusters;
     std::vector<ConeCluster> m_point_clusters;
+    std::vector<ConeVoxelBlock> m_point_voxels;
     std::vector<ConeCluster> m_triangle_clusters;
     std::vector<std::uint32_t> m_point_order;
     std::vector<std::uint32_t> m_triangle_order;

@@ -94,5 +94,56 @@ TEST(ConeBoundBlock, DamagedInputNeverClearsABit) {
     EXPECT_EQ(spheres_near_axis(block, 1, ray, 1.0f, 0.0f, 10.0f), 1u);
 }
 
+TEST(ConeVoxelBlock, EachBitIsThatPointsCentreTest) {
+    // Against the voxel centre computed anew in double: G⁻¹ times its offset from the axis,
+    // within the clip plus what the point's offset code allows.
+    std::mt19937_64 rng(29);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::uniform_int_distribution<int> code(0, 255);
+    int set = 0;
+    int clear = 0;
+    for (int i = 0; i < 5000; ++i) {
+        VoxelGaussian voxels;
+        voxels.first = Vec2f(unit(rng), unit(rng)) * 4.0f;
+        for (Vec2f& step : voxels.step) {
+            step = Vec2f(unit(rng), unit(rng)) * 0.05f;
+        }
+        voxels.clip = 1.977883f;
+        voxels.offset_stretch = 0.01f * (1.0f + unit(rng));
+        ConeVoxelBlock block;
+        const std::uint32_t count = 1 + static_cast<std::uint32_t>(i % kConeClusterSize);
+        for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+            block.x[k] = static_cast<std::uint8_t>(code(rng));
+            block.y[k] = static_cast<std::uint8_t>(code(rng));
+            block.z[k] = static_cast<std::uint8_t>(code(rng));
+            block.offset[k] = static_cast<std::int8_t>(code(rng) - 128);
+        }
+        const std::uint32_t mask = voxels_within_clip(block, count, voxels);
+        for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+            const bool bit = (mask >> k) & 1u;
+            if (k >= count) {
+                ASSERT_FALSE(bit) << "unused slot " << k;
+                continue;
+            }
+            Eigen::Vector2d g = voxels.first.cast<double>();
+            const std::array<int, 3> index{block.x[k], block.y[k], block.z[k]};
+            for (std::size_t a = 0; a < 3; ++a) {
+                g += index[a] * voxels.step[a].cast<double>();
+            }
+            const double reach = voxels.clip + voxels.offset_stretch *
+                                                   std::abs(static_cast<double>(block.offset[k]));
+            if (g.norm() < reach * (1.0 - 1e-4)) {
+                ASSERT_TRUE(bit) << "case " << i << " point " << k;
+            }
+            if (g.norm() > reach * (1.0 + 1e-4)) {
+                ASSERT_FALSE(bit) << "case " << i << " point " << k;
+            }
+            (bit ? set : clear) += 1;
+        }
+    }
+    EXPECT_GT(set, 2000);
+    EXPECT_GT(clear, 2000);
+}
+
 }  // namespace
 }  // namespace mrt
