@@ -83,13 +83,43 @@ float grazing_tangent(float normal_dot_direction, float limit) {
 struct ConeSpace {
     ConeRay ray;
     float world_per_t = 1.0f;  ///< World distance along the ray per unit of this space's t.
-    Mat3f normal_to_world = Mat3f::Identity();  ///< Object normals → world (unnormalised).
-    Mat3f to_object = Mat3f::Identity();        ///< World vectors → object vectors.
+    /// The space this one was entered from (nullptr: the world), and the instance's map from
+    /// that space's normals and to this space's vectors.
+    const ConeSpace* parent = nullptr;
+    const Mat3f* normal_to_parent = nullptr;
+    Mat3f linear_to_object = Mat3f::Identity();
+
+    /// Object normals → world (unnormalised), and world vectors → object vectors: needed only
+    /// where a shading cone hits something, so composed on first use instead of at every
+    /// instance a cone enters (hundreds per cone on the field, most of them hitting nothing).
+    const Mat3f& normal_to_world() const {
+        compose();
+        return m_normal_to_world;
+    }
+    const Mat3f& to_object() const {
+        compose();
+        return m_to_object;
+    }
     std::uint32_t id = 0;      ///< Unique within one traversal: keys the per-vertex frame cache.
     std::uint32_t object = 0;  ///< The object whose nodes the cone is in.
     float start = 0.0f;        ///< How far from the apex the cone's rays start (start_radius).
     /// The sphere tests' view of `ray.cone`, prepared once per space.
     ConeSphereTest bounds;
+
+  private:
+    void compose() const {
+        if (m_composed) {
+            return;
+        }
+        if (parent != nullptr) {
+            m_normal_to_world = parent->normal_to_world() * *normal_to_parent;
+            m_to_object = linear_to_object * parent->to_object();
+        }
+        m_composed = true;
+    }
+    mutable bool m_composed = false;
+    mutable Mat3f m_normal_to_world = Mat3f::Identity();
+    mutable Mat3f m_to_object = Mat3f::Identity();
 };
 
 /// How far from the apex a cone's rays start: its footprint at t = 0.
@@ -122,22 +152,23 @@ ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f&
     space.start = start_radius(cone);
     space.bounds = ConeSphereTest(cone, max_anisotropy);
     space.world_per_t = parent.world_per_t / scale;
-    space.normal_to_world = parent.normal_to_world * normal_to_group;
-    space.to_object = linear * parent.to_object;
+    space.parent = &parent;
+    space.normal_to_parent = &normal_to_group;
+    space.linear_to_object = linear;
     return space;
 }
 
 /// The world-space shape operator of an object-space one: n_w = N·n/|N·n|, so
 /// dn_w = (I − n_w·n_wᵀ)·N·dn/|N·n| with dn = J·dp_object and dp_object = to_object·dp_w.
 Mat3f shape_to_world(const Mat3f& shape, const Vec3f& normal, const ConeSpace& space) {
-    const Vec3f m = space.normal_to_world * normal;
+    const Vec3f m = space.normal_to_world() * normal;
     const float length = m.norm();
     if (!(length > 0.0f)) {
         return Mat3f::Zero();
     }
     const Vec3f n = m / length;
     const Mat3f projection = Mat3f::Identity() - n * n.transpose();
-    return projection * space.normal_to_world * shape * space.to_object / length;
+    return projection * space.normal_to_world() * shape * space.to_object() / length;
 }
 
 Vec3f to_vec(const std::array<float, 3>& a) {
@@ -495,7 +526,7 @@ class Walk {
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {
         ConeSurface s;
-        s.normal = (space.normal_to_world * normal).normalized();
+        s.normal = (space.normal_to_world() * normal).normalized();
         s.diffuse = decode_rgb8(m_view.diffuse[i].rgb);
         if (!m_view.specular.empty()) {
             s.specular = decode_rgb8(m_view.specular[i].rgb);
@@ -709,7 +740,7 @@ class Walk {
         const float length = normal.norm();
         normal = length > 0.0f ? Vec3f(normal / length) : geometric;
         ConeSurface s;
-        s.normal = (space.normal_to_world * normal).normalized();
+        s.normal = (space.normal_to_world() * normal).normalized();
         s.specular = material.specular;
         s.phong_exponent = material.phong_exponent;
         s.reflectivity = material.reflectivity;
