@@ -859,6 +859,21 @@ void cluster(const HierarchyNode& node, std::vector<std::uint32_t> items, Positi
     }
 }
 
+/// Appends to `blocks` one block per cluster [first, first + count) of `clusters`, slot i of a
+/// cluster's block filled by fill(block, i, member) with its i-th member in `order`.
+template <class Block, class Fill>
+void append_blocks(const std::vector<ConeCluster>& clusters, std::uint32_t first,
+                   std::uint32_t count, const std::vector<std::uint32_t>& order,
+                   std::vector<Block>& blocks, Fill&& fill) {
+    for (std::uint32_t k = first; k < first + count; ++k) {
+        const ConeCluster& run = clusters[k];
+        Block& block = blocks.emplace_back();
+        for (std::uint32_t i = 0; i < run.count; ++i) {
+            fill(block, i, order[run.first + i]);
+        }
+    }
+}
+
 }  // namespace
 
 ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
@@ -893,18 +908,14 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
             [](std::uint32_t) { return 0.0f; }, m_point_clusters, m_point_order);
         c.point_cluster_count =
             static_cast<std::uint32_t>(m_point_clusters.size()) - c.first_point_cluster;
-        for (std::uint32_t k = c.first_point_cluster;
-             k < c.first_point_cluster + c.point_cluster_count; ++k) {
-            const ConeCluster& run = m_point_clusters[k];
-            ConeVoxelBlock& block = m_point_voxels.emplace_back();
-            for (std::uint32_t i = 0; i < run.count; ++i) {
-                const std::uint32_t point = m_point_order[run.first + i];
-                block.x[i] = m_view.core[point].voxel[0];
-                block.y[i] = m_view.core[point].voxel[1];
-                block.z[i] = m_view.core[point].voxel[2];
-                block.offset[i] = m_view.offset[point].along_normal;
-            }
-        }
+        append_blocks(m_point_clusters, c.first_point_cluster, c.point_cluster_count, m_point_order,
+                      m_point_voxels,
+                      [&](ConeVoxelBlock& block, std::uint32_t i, std::uint32_t point) {
+                          block.x[i] = m_view.core[point].voxel[0];
+                          block.y[i] = m_view.core[point].voxel[1];
+                          block.z[i] = m_view.core[point].voxel[2];
+                          block.offset[i] = m_view.offset[point].along_normal;
+                      });
         items.clear();
         for (std::uint32_t k = 0; k < node.triangle_count; ++k) {
             items.push_back(m_view.node_triangles[node.first_triangle + k]);
@@ -924,20 +935,17 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
         cluster(node, items, centroid, extent, m_triangle_clusters, m_triangle_order);
         c.triangle_cluster_count =
             static_cast<std::uint32_t>(m_triangle_clusters.size()) - c.first_triangle_cluster;
-        for (std::uint32_t k = c.first_triangle_cluster;
-             k < c.first_triangle_cluster + c.triangle_cluster_count; ++k) {
-            const ConeCluster& run = m_triangle_clusters[k];
-            ConeBoundBlock& block = m_triangle_bounds.emplace_back();
-            for (std::uint32_t i = 0; i < run.count; ++i) {
-                const std::uint32_t t = m_triangle_order[run.first + i];
-                const Vec3f m = centroid(t);
-                block.x[i] = m.x();
-                block.y[i] = m.y();
-                block.z[i] = m.z();
-                // Rounding of the centre and of the ray frame's offsets: a relative margin.
-                block.radius[i] = padded_bound(extent(t));
-            }
-        }
+        append_blocks(m_triangle_clusters, c.first_triangle_cluster, c.triangle_cluster_count,
+                      m_triangle_order, m_triangle_bounds,
+                      [&](ConeBoundBlock& block, std::uint32_t i, std::uint32_t t) {
+                          const Vec3f m = centroid(t);
+                          block.x[i] = m.x();
+                          block.y[i] = m.y();
+                          block.z[i] = m.z();
+                          // Rounding of the centre and of the ray frame's offsets: a relative
+                          // margin.
+                          block.radius[i] = padded_bound(extent(t));
+                      });
     }
 }
 
