@@ -60,6 +60,13 @@ def renders(work, prefix):
             "median_samples_per_second": statistics.median(
                 r.get("samples", 0) / r["render_seconds"] for r in runs),
         })
+        if all("cone" in r for r in runs):
+            # Thread time per cone of each kind (the traversal's own clock), in microseconds.
+            out[-1]["median_microseconds_per_cone"] = {
+                kind: statistics.median(
+                    1e6 * r["cone"][kind + "_traversal_thread_seconds"]
+                    / max(1, r["cone"][kind]["cones"]) for r in runs)
+                for kind in ("primary", "secondary", "shadow")}
     return out
 
 
@@ -160,6 +167,7 @@ def main():
             "median_render_seconds_whitted": cone_whitted[scene]["median_render_seconds"],
             "ratio": cone[scene]["median_render_seconds"]
             / cone_whitted[scene]["median_render_seconds"],
+            "median_microseconds_per_cone": cone[scene].get("median_microseconds_per_cone"),
             "paper_ratio": 4.0,
         } for scene in sorted(cone) if scene in cone_whitted]
     if glob.glob(os.path.join(work, "preprocess-*.json")):
