@@ -403,23 +403,19 @@ class Walk {
         const float clip_reach =
             std::sqrt(kPointWeightClipExponent * (l.ellipse.major + widening * widening));
         // A solid seen from outside: its points facing away from the apex stand for its back.
-        const ClosedSurface* closed = nullptr;
-        if (m_options.cull_closed_back_faces) {
-            closed = m_geometry.closed_surfaces().of_object(space.object);
-            if (closed != nullptr && !closed->seen_from_outside(space.ray.origin, space.start)) {
-                closed = nullptr;
-            }
-        }
+        const ClosedSurface* solid = m_geometry.closed_surfaces().of_object(space.object);
+        const ClosedSurface* closed =
+            m_options.cull_closed_back_faces && solid != nullptr &&
+                    solid->seen_from_outside(space.ray.origin, space.start)
+                ? solid
+                : nullptr;
         // In the Gaussian's units a cluster's sphere (around its points' positions) stretches by
         // at most ‖G⁻¹‖₂: the circle around the clip ellipse passes a long thin cone's clusters
         // along its minor axis, this test does not. A voxel centre moves by its point's stored
         // offset along the normal, at most |offset|·h·‖G⁻¹‖₂.
         const float stretch = largest_singular_value(frame.inverse) * (1.0f + kBoundRelativeMargin);
         const float offset_stretch = h * stretch / 127.0f;  // per step of the offset's code
-        const VoxelsInRayFrame voxels(space.ray, frame, origin, h);
-        const VoxelGaussian gaussian{voxels.first_gaussian, voxels.step_gaussian,
-                                     kClipRadius + kClipCullMargin, offset_stretch};
-        const ClosedSurface* solid = m_geometry.closed_surfaces().of_object(space.object);
+        const VoxelsInRayFrame voxels(space.ray, frame, origin, h, offset_stretch);
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
@@ -428,13 +424,13 @@ class Walk {
             if (!may_hold(space, cluster, l, clip_reach, centre)) {
                 continue;
             }
-            const float reach = kClipRadius + kClipCullMargin + cluster.radius * stretch;
+            const float reach = voxels.gaussian.clip + cluster.radius * stretch;
             if (!((frame.inverse * centre.offset).squaredNorm() <= reach * reach)) {
                 continue;
             }
             m_stats.points_tested += cluster.count;
             for (std::uint32_t near =
-                     voxels_within_clip(m_geometry.point_voxels(c), cluster.count, gaussian);
+                     voxels_within_clip(m_geometry.point_voxels(c), cluster.count, voxels.gaussian);
                  near != 0; near &= near - 1) {
                 const std::uint32_t j =
                     cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));
@@ -449,18 +445,19 @@ class Walk {
     struct VoxelsInRayFrame {
         VertexInRayFrame first;                ///< The centre of voxel (0, 0, 0).
         std::array<VertexInRayFrame, 3> step;  ///< One voxel along x, y, z.
-        Vec2f first_gaussian;                  ///< G⁻¹·first.offset.
-        std::array<Vec2f, 3> step_gaussian;    ///< G⁻¹·step[i].offset.
+        VoxelGaussian gaussian;                ///< The same through G⁻¹, with the clip.
 
         VoxelsInRayFrame(const ConeRay& ray, const PointWeightFrame& frame, const Vec3f& origin,
-                         float h) {
+                         float h, float offset_stretch) {
             first = ray.frame_of(origin + Vec3f::Constant(0.5f * h));
-            first_gaussian = frame.inverse * first.offset;
+            gaussian.first = frame.inverse * first.offset;
             for (int a = 0; a < 3; ++a) {
                 const std::size_t i = static_cast<std::size_t>(a);
                 step[i] = {h * ray.direction[a], h * Vec2f(ray.cone.u[a], ray.cone.v[a])};
-                step_gaussian[i] = frame.inverse * step[i].offset;
+                gaussian.step[i] = frame.inverse * step[i].offset;
             }
+            gaussian.clip = kClipRadius + kClipCullMargin;
+            gaussian.offset_stretch = offset_stretch;
         }
         VertexInRayFrame centre(const VoxelCode& code) const {
             VertexInRayFrame c = first;
