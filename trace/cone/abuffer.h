@@ -167,7 +167,13 @@ class ABuffer {
     /// intersection becomes a new fragment in depth order. Weights that are not positive and
     /// finite, and t or tolerance that are not finite, are ignored (counted); a negative
     /// tolerance counts as 0.
-    void insert(float t, float tolerance, float weight, const A& attributes) {
+    ///
+    /// `attributes` is an A, or anything A::add accepts: a contribution that computes an
+    /// expensive attribute only when the fragment keeps it (the shape operator of a cone's
+    /// largest-weight contributor, trace/cone/cone_surface.h).
+    template <class Contribution = A>
+    requires requires(A& sums, const Contribution& c, float w) { sums.add(c, w); }
+    void insert(float t, float tolerance, float weight, const Contribution& attributes) {
         MRT_DCHECK(ordered());
         if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
             !std::isfinite(tolerance)) {
@@ -281,7 +287,8 @@ class ABuffer {
         return i;
     }
 
-    static void accumulate(FragmentType& f, float t, float weight, const A& attributes) {
+    template <class Contribution>
+    static void accumulate(FragmentType& f, float t, float weight, const Contribution& attributes) {
         f.sums.add(attributes, weight);
         f.weight += weight;
         f.weighted_depth += weight * t;
@@ -330,7 +337,9 @@ class ABuffer {
     /// applies the overflow policy of the class comment. Returns true when a slot is now free
     /// for the new fragment at index i (updated); false when the intersection was dropped or
     /// merged.
-    bool make_room(int& i, float lo, float hi, float t, float weight, const A& attributes) {
+    template <class Contribution>
+    bool make_room(int& i, float lo, float hi, float t, float weight,
+                   const Contribution& attributes) {
         const float opaque = opaque_depth();
         if (lo > opaque) {
             ++m_stats.dropped_insertions;

@@ -13,6 +13,27 @@ std::ostream& operator<<(std::ostream& os, const ConeRay& ray) {
               << "}";
 }
 
+MappedCone map_cone(const ConeRay& ray, const Affine3f& to_object) {
+    MappedCone mapped;
+    const Mat3f linear = to_object.linear();
+    const Vec3f direction = linear * ray.direction;
+    mapped.scale = direction.norm();
+    ConeRay& to = mapped.ray;
+    to.origin = to_object * ray.origin;
+    to.direction = direction / mapped.scale;
+    FootprintCone& cone = to.cone;
+    orthonormal_basis(to.direction, cone.u, cone.v);
+    const FootprintCone& from = ray.cone;
+    const Mat2f b = cone.basis().transpose() * linear * from.basis();
+    // The new t = scale · the old t, so the increments per unit of t shrink by the scale.
+    cone.start_dev = b * from.start_dev;
+    cone.incr_dev = b * from.incr_dev / mapped.scale;
+    cone.blurred = from.blurred;
+    cone.blur_start = b * from.blur_start;
+    cone.blur_incr = b * from.blur_incr / mapped.scale;
+    return mapped;
+}
+
 std::ostream& operator<<(std::ostream& os, const SphereInRayFrame& s) {
     return os << "SphereInRayFrame{t " << s.t << ", offset (" << s.offset.x() << ", "
               << s.offset.y() << "), radius " << s.radius << "}";

@@ -55,6 +55,18 @@ struct ConeRay {
 
 std::ostream& operator<<(std::ostream& os, const ConeRay& ray);
 
+/// A cone seen from another space (an instance's object space, entered from its group's).
+struct MappedCone {
+    ConeRay ray;
+    float scale = 1.0f;  ///< The new space's t per unit of the old one's, along the axis.
+};
+
+/// The cone `ray` through the affine map `to_object`. Offsets in the ray's u/v plane map by the
+/// linear part; to first order the new cross-section is their projection onto the plane
+/// orthogonal to the new axis. For a similarity (rotation, reflection, uniform scale) that is
+/// the mapped cone itself, scaled.
+MappedCone map_cone(const ConeRay& ray, const Affine3f& to_object);
+
 struct ConePointHit {
     /// Depth along the ray of the surface the point stands for: where the axis meets the
     /// point's tangent plane (Zwicker et al.'s ray–splat intersection), blended towards the

@@ -36,6 +36,33 @@ struct ConeSurface {
     float normal_length = 1.0f;
 
     void add(const ConeSurface& p, float weight) {
+        add_weighted(p, weight);
+        if (weight > shape_weight) {
+            shape_weight = weight;
+            shape = p.shape;
+        }
+    }
+
+    /// A contribution whose shape operator is computed only if it becomes the fragment's:
+    /// nearly all insertions merge into a fragment that already holds a heavier one (98 % on
+    /// the complex scene), and the world-space operator costs two 3×3 products.
+    template <class ShapeOf>
+    struct Lazy {
+        const ConeSurface& surface;  ///< Its attributes; `shape` is not read.
+        ShapeOf shape_of;            ///< () → Mat3f, the world-space shape operator.
+    };
+
+    template <class ShapeOf>
+    void add(const Lazy<ShapeOf>& p, float weight) {
+        add_weighted(p.surface, weight);
+        if (weight > shape_weight) {
+            shape_weight = weight;
+            shape = p.shape_of();
+        }
+    }
+
+    /// Every field's weighted sum but the shape operator's.
+    void add_weighted(const ConeSurface& p, float weight) {
         normal += weight * p.normal;
         diffuse += weight * p.diffuse;
         specular += weight * p.specular;
@@ -44,10 +71,6 @@ struct ConeSurface {
         transparency += weight * p.transparency;
         roughness += weight * p.roughness;
         ior += weight * p.transparency * p.ior;
-        if (weight > shape_weight) {
-            shape_weight = weight;
-            shape = p.shape;
-        }
     }
 
     void merge(const ConeSurface& o) {

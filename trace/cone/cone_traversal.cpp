@@ -132,29 +132,14 @@ float start_radius(const FootprintCone& cone) {
 ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f& normal_to_group,
                 float max_anisotropy) {
     ConeSpace space;
-    const Mat3f linear = to_object.linear();
-    const Vec3f direction = linear * parent.ray.direction;
-    const float scale = direction.norm();  // object length per group length along the axis
-    space.ray.origin = to_object * parent.ray.origin;
-    space.ray.direction = direction / scale;
-    FootprintCone& cone = space.ray.cone;
-    orthonormal_basis(space.ray.direction, cone.u, cone.v);
-    // Offsets in the parent's u/v plane map by the linear part; to first order the object-space
-    // section is their projection onto the plane orthogonal to the new axis.
-    const FootprintCone& from = parent.ray.cone;
-    const Mat2f b = cone.basis().transpose() * linear * from.basis();
-    // Object t = scale · group t, so the increments per unit of t shrink by the scale.
-    cone.start_dev = b * from.start_dev;
-    cone.incr_dev = b * from.incr_dev / scale;
-    cone.blurred = from.blurred;
-    cone.blur_start = b * from.blur_start;
-    cone.blur_incr = b * from.blur_incr / scale;
-    space.start = start_radius(cone);
-    space.bounds = ConeSphereTest(cone, max_anisotropy);
-    space.world_per_t = parent.world_per_t / scale;
+    const MappedCone mapped = map_cone(parent.ray, to_object);
+    space.ray = mapped.ray;
+    space.start = start_radius(space.ray.cone);
+    space.bounds = ConeSphereTest(space.ray.cone, max_anisotropy);
+    space.world_per_t = parent.world_per_t / mapped.scale;
     space.parent = &parent;
     space.normal_to_parent = &normal_to_group;
-    space.linear_to_object = linear;
+    space.linear_to_object = to_object.linear();
     return space;
 }
 
@@ -309,12 +294,35 @@ class Walk {
         }
         for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
              ++i) {
+            if (!reaches_instance(space, m_geometry.instance_bound(i))) {
+                continue;
+            }
             ++m_stats.instances_entered;
             ConeSpace inner = enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i),
                                     m_options.max_anisotropy);
             inner.id = ++m_spaces;
             object(inner, m_view.instances[i].object, weight);
         }
+    }
+
+    /// Whether a cone may meet anything of an instance, tested in the group's space before the
+    /// cone is mapped into the instance's: half of the instances a cone's node leads it to
+    /// (a leaf of an instance tree holds up to four) lie beside it.
+    bool reaches_instance(const ConeSpace& space, const ConeInstanceBound& bound) {
+        if (!m_options.instance_bounds || !bound.similarity) {
+            return true;
+        }
+        ++m_stats.spheres_tested;
+        SphereInRayFrame sphere;
+        if (!may_enter(bound, space.ray, space.bounds, m_t_min / space.world_per_t,
+                       m_t_max / space.world_per_t, sphere)) {
+            return false;
+        }
+        if ((sphere.t - sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
+            ++m_stats.culled_by_opacity;
+            return false;
+        }
+        return true;
     }
 
     /// The Gaussian frame of the (clamped) footprint at a vertex's depth. A vertex is shared by
@@ -513,8 +521,10 @@ class Walk {
         const float tolerance =
             0.5f * h * (1.0f + 0.5f * grazing_tangent(n.along, kPointToleranceTangent));
         if constexpr (kShade) {
-            m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
-                            weight * hit->weight, point_surface(space, i, normal));
+            const ConeSurface surface = point_surface(space, i, normal);
+            m_buffer.insert(
+                hit->t * space.world_per_t, tolerance * space.world_per_t, weight * hit->weight,
+                ConeSurface::Lazy{surface, [&] { return point_shape(space, i, normal, surface); }});
         } else {
             m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
                             weight * hit->weight, {});
@@ -537,19 +547,28 @@ class Walk {
             const PointMirror& mirror = m_view.mirror[i];
             s.reflectivity = decode_unit8(mirror.reflectivity);
             s.roughness = decode_unit8(mirror.roughness);
-            if (s.reflectivity > 0.0f || s.transparency > 0.0f) {
-                // The gradient's columns are ∂n/∂u, ∂n/∂v in the tangent frame (t_u, t_v).
-                const Vec3f tu = decode_tangent(mirror.tangent_angle, normal);
-                const Vec3f tv = normal.cross(tu);
-                const Mat2f g = decode_gradient(mirror.gradient);
-                Mat32f frame;
-                frame.col(0) = tu;
-                frame.col(1) = tv;
-                const Mat3f shape = frame * g * frame.transpose();
-                s.shape = shape_to_world(shape, normal, space);
-            }
         }
         return s;
+    }
+
+    /// The world-space shape operator of point i, whose attributes are `surface`: only a
+    /// surface that reflects or refracts sends cones on that need it.
+    Mat3f point_shape(const ConeSpace& space, std::uint32_t i, const Vec3f& normal,
+                      const ConeSurface& surface) const {
+        if (m_view.mirror.empty() ||
+            !(surface.reflectivity > 0.0f || surface.transparency > 0.0f)) {
+            return Mat3f::Zero();
+        }
+        const PointMirror& mirror = m_view.mirror[i];
+        // The gradient's columns are ∂n/∂u, ∂n/∂v in the tangent frame (t_u, t_v).
+        const Vec3f tu = decode_tangent(mirror.tangent_angle, normal);
+        const Vec3f tv = normal.cross(tu);
+        const Mat2f g = decode_gradient(mirror.gradient);
+        Mat32f frame;
+        frame.col(0) = tu;
+        frame.col(1) = tv;
+        const Mat3f shape = frame * g * frame.transpose();
+        return shape_to_world(shape, normal, space);
     }
 
     void triangles(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
@@ -703,9 +722,12 @@ class Walk {
                 radius * (0.5f + grazing_tangent(geometric.dot(space.ray.direction),
                                                  kTriangleToleranceTangent));
             if constexpr (kShade) {
+                const TriangleAtHit at = triangle_at(triangle, p, geometric, *hit);
+                const ConeSurface surface = triangle_surface(space, triangle, at);
                 m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
                                 weight * hit->weight,
-                                triangle_surface(space, triangle, p, geometric, *hit));
+                                ConeSurface::Lazy{
+                                    surface, [&] { return triangle_shape(space, triangle, at); }});
             } else {
                 m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
                                 weight * hit->weight, {});
@@ -713,64 +735,95 @@ class Walk {
         }
     }
 
-    ConeSurface triangle_surface(const ConeSpace& space, std::uint32_t triangle,
-                                 const std::array<Vec3f, 3>& p, const Vec3f& geometric,
-                                 const ConeTriangleHit& hit) const {
+    /// What a triangle's attributes and shape operator are interpolated from at a hit.
+    struct TriangleAtHit {
+        std::array<Vec3f, 3> positions;
+        std::array<Vec3f, 3> normals;  ///< The vertices' (decoded) normals.
+        std::array<Vec2f, 3> uvs;      ///< Zero where the file has none.
+        Vec3f geometric;               ///< Unit normal of the winding.
+        Vec3f normal;                  ///< Interpolated unit normal (the geometric one if none).
+        Vec2f uv;                      ///< Interpolated texture coordinates.
+        float b1;
+        float b2;
+        float t;
+    };
+
+    TriangleAtHit triangle_at(std::uint32_t triangle, const std::array<Vec3f, 3>& p,
+                              const Vec3f& geometric, const ConeTriangleHit& hit) const {
         const auto& tri = m_view.triangles[triangle];
-        const Material& material =
-            m_geometry.scene().materials[m_view.triangle_materials[triangle]];
-        const float b0 = 1.0f - hit.b1 - hit.b2;
-        const float b[3] = {b0, hit.b1, hit.b2};
-        Vec3f n[3];
-        Vec2f uv[3] = {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()};
+        TriangleAtHit at;
+        at.positions = p;
+        at.geometric = geometric;
+        at.b1 = hit.b1;
+        at.b2 = hit.b2;
+        at.t = hit.t;
+        const float b[3] = {1.0f - hit.b1 - hit.b2, hit.b1, hit.b2};
         Vec3f normal = Vec3f::Zero();
-        Vec2f at = Vec2f::Zero();
-        for (int i = 0; i < 3; ++i) {
-            n[i] = decode_normal(m_view.vertex_normals[tri[static_cast<std::size_t>(i)]]);
-            normal += b[i] * n[i];
+        at.uv = Vec2f::Zero();
+        for (std::size_t i = 0; i < 3; ++i) {
+            at.normals[i] = decode_normal(m_view.vertex_normals[tri[i]]);
+            normal += b[i] * at.normals[i];
+            at.uvs[i] = Vec2f::Zero();
             if (!m_view.vertex_uvs.empty()) {
-                const auto& t = m_view.vertex_uvs[tri[static_cast<std::size_t>(i)]];
-                uv[i] = Vec2f(t[0], t[1]);
-                at += b[i] * uv[i];
+                const auto& t = m_view.vertex_uvs[tri[i]];
+                at.uvs[i] = Vec2f(t[0], t[1]);
+                at.uv += b[i] * at.uvs[i];
             }
         }
         const float length = normal.norm();
-        normal = length > 0.0f ? Vec3f(normal / length) : geometric;
+        at.normal = length > 0.0f ? Vec3f(normal / length) : geometric;
+        return at;
+    }
+
+    ConeSurface triangle_surface(const ConeSpace& space, std::uint32_t triangle,
+                                 const TriangleAtHit& at) const {
+        const Material& material =
+            m_geometry.scene().materials[m_view.triangle_materials[triangle]];
         ConeSurface s;
-        s.normal = (space.normal_to_world() * normal).normalized();
+        s.normal = (space.normal_to_world() * at.normal).normalized();
         s.specular = material.specular;
         s.phong_exponent = material.phong_exponent;
         s.reflectivity = material.reflectivity;
         s.transparency = material.transparency;
         s.roughness = material.roughness;
         s.ior = material.ior;
-        const Vec3f positions[3] = {p[0], p[1], p[2]};
         if (material.texture >= 0) {
             // The footprint at the hit, projected along the ray onto the triangle's plane
             // (Igehy's transfer), gives the texture-space footprint of the lookup (§4).
-            const Mat2f f = m_options.texture_footprint_scale * space.ray.cone.at(hit.t);
+            const Mat2f f = m_options.texture_footprint_scale * space.ray.cone.at(at.t);
             const Mat32f columns = space.ray.cone.basis() * f;
             RayDifferential footprint;
             footprint.dp_dx = columns.col(0);
             footprint.dp_dy = columns.col(1);
             const RayDifferential on_plane =
-                footprint.transfer(space.ray.direction, 0.0f, geometric);
-            const SurfaceDifferential sd = triangle_differential(
-                positions, n, uv, hit.b1, hit.b2, on_plane.dp_dx, on_plane.dp_dy, Facing::Front);
-            s.diffuse = m_geometry.textures().diffuse(material, at, {sd.duv_dx, sd.duv_dy});
+                footprint.transfer(space.ray.direction, 0.0f, at.geometric);
+            const SurfaceDifferential sd =
+                triangle_differential(at.positions.data(), at.normals.data(), at.uvs.data(), at.b1,
+                                      at.b2, on_plane.dp_dx, on_plane.dp_dy, Facing::Front);
+            s.diffuse = m_geometry.textures().diffuse(material, at.uv, {sd.duv_dx, sd.duv_dy});
         } else {
             s.diffuse = material.diffuse;
         }
-        if (material.reflects() || material.refracts()) {
-            Vec3f t1;
-            Vec3f t2;
-            orthonormal_basis(geometric, t1, t2);
-            const SurfaceDifferential sd =
-                triangle_differential(positions, n, uv, hit.b1, hit.b2, t1, t2, Facing::Front);
-            const Mat3f shape = sd.dn_dx * t1.transpose() + sd.dn_dy * t2.transpose();
-            s.shape = shape_to_world(shape, normal, space);
-        }
         return s;
+    }
+
+    /// The world-space shape operator at a triangle's hit: only a surface that reflects or
+    /// refracts sends cones on that need it.
+    Mat3f triangle_shape(const ConeSpace& space, std::uint32_t triangle,
+                         const TriangleAtHit& at) const {
+        const Material& material =
+            m_geometry.scene().materials[m_view.triangle_materials[triangle]];
+        if (!(material.reflects() || material.refracts())) {
+            return Mat3f::Zero();
+        }
+        Vec3f t1;
+        Vec3f t2;
+        orthonormal_basis(at.geometric, t1, t2);
+        const SurfaceDifferential sd =
+            triangle_differential(at.positions.data(), at.normals.data(), at.uvs.data(), at.b1,
+                                  at.b2, t1, t2, Facing::Front);
+        const Mat3f shape = sd.dn_dx * t1.transpose() + sd.dn_dy * t2.transpose();
+        return shape_to_world(shape, at.normal, space);
     }
 
     const ConeGeometry& m_geometry;
@@ -884,6 +937,10 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
         // inverse is representable (common/math/invertibility.h).
         m_to_object.push_back(inverse_in_double(to_group));
         m_normal_to_group.push_back(inverse_in_double(Mat3f(to_group.linear())).transpose());
+        const HierarchyNode& root = m_view.nodes[m_view.objects[instance.object].first_node];
+        m_instance_bounds.push_back(mrt::instance_bound(
+            to_vec(root.sphere_centre), root.sphere_radius,
+            kPointKernelRadius * root.side / static_cast<float>(m_view.grid), to_group));
     }
     m_node_clusters.resize(m_view.nodes.size());
     m_point_order.reserve(m_view.core.size());

@@ -36,6 +36,7 @@
 #include "trace/cone/abuffer.h"
 #include "trace/cone/closed_surfaces.h"
 #include "trace/cone/cone_bound_block.h"
+#include "trace/cone/cone_instance_bound.h"
 #include "trace/cone/cone_ray.h"
 #include "trace/cone/cone_surface.h"
 #include "trace/cone/cone_triangle.h"
@@ -71,6 +72,9 @@ struct ConeTraversalOptions {
     /// Skip the back faces of closed surfaces (trace/cone/closed_surfaces.h) for cones whose apex
     /// lies outside them: they would double a thin solid's coverage.
     bool cull_closed_back_faces = true;
+    /// Test an instance's root sphere in its group's space before mapping the cone into the
+    /// instance (ConeInstanceBound); false enters every instance a node holds, to compare.
+    bool instance_bounds = true;
 };
 
 /// What traversals did, for --stats; add up over rays and threads with +=.
@@ -160,6 +164,8 @@ class ConeGeometry {
     /// Instance i's map of object-space normals into group space (the inverse transpose of its
     /// linear part; unnormalised results).
     const Mat3f& normal_to_group(std::uint32_t i) const { return m_normal_to_group[i]; }
+    /// Instance i's object root as its group sees it.
+    const ConeInstanceBound& instance_bound(std::uint32_t i) const { return m_instance_bounds[i]; }
     /// The closed surfaces of the meshes.
     const ClosedSurfaces& closed_surfaces() const { return m_closed; }
 
@@ -183,6 +189,7 @@ class ConeGeometry {
     const TextureSampler& m_textures;
     std::vector<Affine3f> m_to_object;
     std::vector<Mat3f> m_normal_to_group;
+    std::vector<ConeInstanceBound> m_instance_bounds;
     ClosedSurfaces m_closed;
     std::vector<ConeNodeClusters> m_node_clusters;
     std::vector<ConeCluster> m_point_clusters;

@@ -1055,6 +1055,93 @@ TEST(ConeRender, ThinSolidCoversWhatItsSilhouetteCovers) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Instances tested in their group's space.
+
+/// A 7 × 7 grid of instanced tiles on a floor, each turned and scaled its own way, one of them
+/// a mirror ball (secondary cones through the rest), one mirrored by a negative scale, and two
+/// stretched unevenly (whose object-space cone is not a scaled copy of the group's, so they
+/// are always entered), under a point and an elliptical light (shadow cones). A square tile's
+/// bounding sphere passes through its corners: a group-space sphere any smaller cuts them off.
+json instance_grid(int resolution) {
+    json objects = json::array();
+    objects.push_back({{"shape", "checkerboard"},
+                       {"size", {12, 12}},
+                       {"tiles", {12, 12}},
+                       {"materials", {"dark", "light"}}});
+    for (int i = 0; i < 7; ++i) {
+        for (int j = 0; j < 7; ++j) {
+            const int k = 7 * i + j;
+            json scale = 0.6 + 0.1 * (k % 5);
+            if (k == 17 || k == 30) {
+                scale = vec(0.5, 1.0, 0.7);
+            } else if (k == 24) {
+                scale = vec(-0.8, 0.8, 0.8);
+            }
+            objects.push_back({{"instance", k == 10 ? "mirror_ball" : "tile"},
+                               {"transform",
+                                {{"scale", scale},
+                                 {"rotate", {{"axis", vec(0.3, 1, 0.2)}, {"degrees", 37.0 * k}}},
+                                 {"translate", vec(-4.5 + 1.5 * j, 0.6, -4.5 + 1.5 * i)}}}});
+        }
+    }
+    const json sphere = {{"shape", "sphere"}, {"radius", 0.6}, {"segments", 24}, {"rings", 12}};
+    const json tile = {{"shape", "quad"}, {"size", {1, 1}}, {"material", "red"}};
+    json mirror_ball = sphere;
+    mirror_ball["material"] = "mirror";
+    return {{"camera", camera_json(vec(1, 5, 9), vec(0, 0, -1), 45, resolution, resolution)},
+            {"background", {0.1, 0.12, 0.15}},
+            {"ambient", 0.1},
+            {"materials",
+             {{"dark", {{"diffuse", 0.15}}},
+              {"light", {{"diffuse", 0.8}}},
+              {"red", {{"diffuse", {0.7, 0.2, 0.1}}}},
+              {"mirror", {{"diffuse", 0.1}, {"reflectivity", 0.8}}}}},
+            {"lights",
+             {{{"type", "point"}, {"position", vec(3, 6, 4)}, {"intensity", 40.0}},
+              {{"type", "ellipse"},
+               {"center", vec(-3, 5, 2)},
+               {"semi_axis_u", vec(0.8, 0, 0)},
+               {"semi_axis_v", vec(0, 0, 0.8)},
+               {"radiance", 6.0}}}},
+            {"groups",
+             {{"tile", {{"objects", json::array({tile})}}},
+              {"mirror_ball", {{"objects", json::array({mirror_ball})}}}}},
+            {"objects", objects}};
+}
+
+std::uint64_t instances_entered(const ConeRenderStats& stats) {
+    return stats.primary.instances_entered + stats.secondary.instances_entered +
+           stats.shadow.instances_entered;
+}
+
+TEST(ConeRender, InstancesTestedInTheirGroupsSpaceRenderAsEnteredOnes) {
+    // The group-space test of an instance's root sphere may only skip what the root's own test
+    // in the instance's space would have rejected: the image must not change by a bit.
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const int resolution = 48;
+    const ConeScene scene(scratch.path(), instance_grid(resolution), "instances.json");
+    ConeOptions entering;
+    entering.traversal.instance_bounds = false;
+    for (const bool points : {true, false}) {
+        SCOPED_TRACE(points ? "cone" : "cone-classic");
+        ConeOptions tested;
+        tested.traversal.points = points;
+        entering.traversal.points = points;
+        const ConeRenderOutput with = scene.render(resolution, resolution, tested);
+        const ConeRenderOutput without = scene.render(resolution, resolution, entering);
+        record(points ? "entered_with_bounds" : "classic_entered_with_bounds",
+               static_cast<double>(instances_entered(with.stats)));
+        record(points ? "entered_without_bounds" : "classic_entered_without_bounds",
+               static_cast<double>(instances_entered(without.stats)));
+        EXPECT_GT(with.stats.secondary.rays, 0u);
+        EXPECT_GT(with.stats.shadow.rays, 0u);
+        EXPECT_EQ(max_abs_difference(with.render.image, without.render.image), 0.0);
+        // Most instances a node leads a cone to lie beside it.
+        EXPECT_LT(2 * instances_entered(with.stats), instances_entered(without.stats));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Soft shadows from an elliptical area light.
 
 /// A grey floor under a black square occluder 2 units up, lit by an elliptical light 5 units
