@@ -20,25 +20,34 @@ PAPER_PREPROCESSING = {
 }
 
 
-def kernels(path):
-    with open(path) as f:
-        data = json.load(f)
+def kernels(paths):
+    """The medians of Google Benchmark JSON files, by benchmark name: the BVH kernels (in ms)
+    and the cone block tests (ns per block, with the instruction set the SIMD kernels ran on)."""
     out = {}
-    for b in data["benchmarks"]:
-        if b.get("aggregate_name") != "median":
-            continue
-        name = b["run_name"]
-        entry = {"real_time_ms": b["real_time"] if b["time_unit"] == "ms" else
-                 b["real_time"] / {"ns": 1e6, "us": 1e3, "s": 1e-3}[b["time_unit"]]}
-        for key, value in b.items():
-            if key in ("hit_fraction", "triangles", "nodes"):
-                entry[key] = value
-            elif key == "rays/s":
-                entry["rays_per_second"] = value
-        out[name] = entry
-    return {"context": {k: data["context"].get(k) for k in ("num_cpus", "mhz_per_cpu",
-                                                               "library_build_type")},
-            "kernels": out}
+    context = None
+    for path in paths:
+        with open(path) as f:
+            data = json.load(f)
+        if context is None:
+            context = {k: data["context"].get(k)
+                       for k in ("num_cpus", "mhz_per_cpu", "library_build_type")}
+        for b in data["benchmarks"]:
+            if b.get("aggregate_name") != "median":
+                continue
+            name = b["run_name"]
+            to_ms = {"ns": 1e-6, "us": 1e-3, "ms": 1.0, "s": 1e3}[b["time_unit"]]
+            entry = {"real_time_ms": b["real_time"] * to_ms}
+            if b["time_unit"] == "ns":
+                entry["real_time_ns"] = b["real_time"]
+            if b.get("label"):
+                entry["instruction_set"] = b["label"]
+            for key, value in b.items():
+                if key in ("hit_fraction", "triangles", "nodes", "kept_fraction"):
+                    entry[key] = value
+                elif key == "rays/s":
+                    entry["rays_per_second"] = value
+            out[name] = entry
+    return {"context": context, "kernels": out}
 
 
 def renders(work, prefix):
@@ -143,8 +152,11 @@ def preprocessing(work):
 def main():
     work = sys.argv[1]
     report = {}
-    if os.path.isfile(os.path.join(work, "kernels.json")):
-        report.update(kernels(os.path.join(work, "kernels.json")))
+    kernel_files = [os.path.join(work, name)
+                    for name in ("kernels.json", "kernels-cone-block.json")
+                    if os.path.isfile(os.path.join(work, name))]
+    if kernel_files:
+        report.update(kernels(kernel_files))
     for key, prefix in (("whitted_renders", "render"), ("distributed_renders", "distributed")):
         if glob.glob(os.path.join(work, prefix + "-*.json")):
             report[key] = renders(work, prefix)

@@ -1,9 +1,19 @@
 #pragma once
 // The bounding spheres of one cluster's members (a node's kept triangles, kConeClusterSize at
-// most) in structure-of-arrays form, tested against a cone all at once: a fixed trip count over
-// flat arrays and no branches, which the compiler turns into SIMD (four or eight spheres per
-// instruction), where one sphere at a time cost a projection and three branches each.
+// most), the voxels of its points, and a node's children's bounding spheres, in
+// structure-of-arrays form, tested against a cone all at once: a fixed trip count over flat arrays
+// and no branches, where one sphere at a time cost a projection and three branches each.
+//
+// Each test has two forms. The unsuffixed one, which the traversal calls, runs the Highway
+// kernels of trace/cone/cone_block_simd.cpp, compiled for AVX-512, AVX2, SSE4 (and a one-lane
+// fallback) and dispatched at run time to the best the CPU has: sixteen spheres in one or two
+// instructions per step, where the compiler's vectorisation of a loop is held to the SSE2 of a
+// portable x86-64 build. The `_scalar` one, one member at a time, is the reference the tests
+// compare them with. Both evaluate the same expressions in the same order without fused
+// multiply-adds, so they agree bit for bit (unless MRT_NATIVE lets the compiler fuse the
+// reference's).
 
+#include "trace/cone/cone_bounds.h"
 #include "trace/cone/cone_ray.h"
 
 #include <algorithm>
@@ -32,9 +42,14 @@ static_assert(sizeof(ConeBoundBlock) == 4 * 4 * kConeClusterSize);
 /// Bit k (k < count, the block's spheres in use) set when sphere k of `block` may hold something
 /// within `reach` of `ray`'s axis between t_min and t_max: its depths overlap them and its centre
 /// lies within reach + radius of the axis. Conservative for non-finite input (a NaN never clears
-/// a bit of a sphere in use), as one sphere's test is.
-inline std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_t count,
-                                       const ConeRay& ray, float reach, float t_min, float t_max) {
+/// a bit of a sphere in use), as one sphere's test is. The SIMD kernel, dispatched at run time.
+std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_t count,
+                                const ConeRay& ray, float reach, float t_min, float t_max);
+
+/// spheres_near_axis one sphere at a time: the reference.
+inline std::uint32_t spheres_near_axis_scalar(const ConeBoundBlock& block, std::uint32_t count,
+                                              const ConeRay& ray, float reach, float t_min,
+                                              float t_max) {
     const Vec3f& o = ray.origin;
     const Vec3f& d = ray.direction;
     const Vec3f& u = ray.cone.u;
@@ -84,9 +99,14 @@ struct VoxelGaussian {
 
 /// Bit k (k < count) set when point k of `block` may lie within the clip: its voxel centre lies
 /// within `clip` plus how far its offset along the normal can move it (`offset_stretch` per step
-/// of its code). A NaN centre clears its bit, as the point's own weight would be 0.
-inline std::uint32_t voxels_within_clip(const ConeVoxelBlock& block, std::uint32_t count,
-                                        const VoxelGaussian& voxels) {
+/// of its code). A NaN centre clears its bit, as the point's own weight would be 0. The SIMD
+/// kernel, dispatched at run time.
+std::uint32_t voxels_within_clip(const ConeVoxelBlock& block, std::uint32_t count,
+                                 const VoxelGaussian& voxels);
+
+/// voxels_within_clip one point at a time: the reference.
+inline std::uint32_t voxels_within_clip_scalar(const ConeVoxelBlock& block, std::uint32_t count,
+                                               const VoxelGaussian& voxels) {
     std::array<std::uint32_t, kConeClusterSize> inside;
     for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
         const float i = static_cast<float>(block.x[k]);
@@ -105,6 +125,54 @@ inline std::uint32_t voxels_within_clip(const ConeVoxelBlock& block, std::uint32
         mask |= inside[k] << k;
     }
     return mask & ((1u << std::min(count, kConeClusterSize)) - 1u);
+}
+
+/// Children per octree node.
+inline constexpr std::uint32_t kConeChildCount = 8;
+
+/// The bounding spheres of one node's children (HierarchyNode::sphere_centre, sphere_radius, in
+/// the node's object space) and the radius of each child's points' kernel, in
+/// structure-of-arrays form: the traversal's first test of each child (ConeSphereTest::
+/// circle_may_touch) eight at a time, with the depths that order them front to back.
+struct alignas(32) ConeChildBlock {
+    std::array<float, kConeChildCount> x{};
+    std::array<float, kConeChildCount> y{};
+    std::array<float, kConeChildCount> z{};
+    /// Unused slots have radius −∞ (their bits are cleared all the same).
+    std::array<float, kConeChildCount> radius;
+    /// The child's footprint widening: kPointKernelRadius times its point spacing
+    /// (common/footprint/point_weight.h), in object-space units.
+    std::array<float, kConeChildCount> widening{};
+
+    ConeChildBlock() { radius.fill(-std::numeric_limits<float>::infinity()); }
+};
+static_assert(sizeof(ConeChildBlock) == 5 * 4 * kConeChildCount);
+
+/// Bit k (k < count, the children in use) set when child k's sphere, in `ray`'s frame as
+/// ConeRay::sphere_of puts it, may touch the cone between t_min and t_max:
+/// test.circle_may_touch(sphere, widening[k], t_min, t_max), so non-finite input sets the bit
+/// and a sphere wholly before t_min or after t_max clears it. `nearest[k]` receives the sphere's
+/// nearest depth, t − radius (for every k < kConeChildCount; unused slots get +∞), by which the
+/// traversal visits the children front to back. The SIMD kernel, dispatched at run time.
+std::uint32_t children_near_cone(const ConeChildBlock& block, std::uint32_t count,
+                                 const ConeRay& ray, const ConeSphereTest& test, float t_min,
+                                 float t_max, std::array<float, kConeChildCount>& nearest);
+
+/// children_near_cone one child at a time, through circle_may_touch itself: the reference.
+inline std::uint32_t children_near_cone_scalar(const ConeChildBlock& block, std::uint32_t count,
+                                               const ConeRay& ray, const ConeSphereTest& test,
+                                               float t_min, float t_max,
+                                               std::array<float, kConeChildCount>& nearest) {
+    std::uint32_t mask = 0;
+    for (std::uint32_t k = 0; k < kConeChildCount; ++k) {
+        const SphereInRayFrame sphere =
+            ray.sphere_of(Vec3f(block.x[k], block.y[k], block.z[k]), block.radius[k]);
+        nearest[k] = sphere.t - sphere.radius;
+        if (k < count && test.circle_may_touch(sphere, block.widening[k], t_min, t_max)) {
+            mask |= 1u << k;
+        }
+    }
+    return mask;
 }
 
 }  // namespace mrt

@@ -57,6 +57,10 @@ class ConeSphereTest {
     bool rectangle_may_touch(const SphereInRayFrame& sphere, float widening, float t_min,
                              float t_max, const Vec2f& axis) const;
 
+    /// Relative to the magnitude of the quadratic's terms, what the evaluation and the
+    /// coefficients' own rounding can lose: a few ulps of each of half a dozen operations.
+    static constexpr float kQuadraticRounding = 16.0f * std::numeric_limits<float>::epsilon();
+
     /// An upper bound on ‖F(t)‖_F² + ‖B(t)‖_F², from the quadratic with a margin for its
     /// rounding (the quadratic cancels where a focusing cone narrows to a point).
     float frobenius_squared(float t) const {
@@ -66,11 +70,25 @@ class ConeSphereTest {
         return std::max(0.0f, value) + kQuadraticRounding * magnitude;
     }
 
-  private:
-    /// Relative to the magnitude of the quadratic's terms, what the evaluation and the
-    /// coefficients' own rounding can lose: a few ulps of each of half a dozen operations.
-    static constexpr float kQuadraticRounding = 16.0f * std::numeric_limits<float>::epsilon();
+    /// All that circle_may_touch reads of the cone: what a kernel testing several spheres at
+    /// once (children_near_cone, trace/cone/cone_block_simd.cpp) needs to answer exactly as it
+    /// does, evaluating frobenius_squared and the circle in the same order.
+    struct CircleCoefficients {
+        /// False when the cone's input was damaged: then every sphere may touch.
+        bool finite = false;
+        /// frobenius_squared's quadratic in t: ‖S‖_F² + ‖B₀‖_F², 2·(⟨S, I⟩ + ⟨B₀, B₁⟩),
+        /// ‖I‖_F² + ‖B₁‖_F².
+        float constant = 0.0f;
+        float linear = 0.0f;
+        float quadratic = 0.0f;
+        /// 1/A², A the anisotropy clamp.
+        float inverse_anisotropy_squared = 0.0f;
+    };
+    CircleCoefficients circle() const {
+        return {m_finite, m_constant, m_linear, m_quadratic, m_inverse_anisotropy_squared};
+    }
 
+  private:
     /// The sphere's depths within [t_min, t_max], or false when the input is not finite (then
     /// the tests answer true).
     bool depths(const SphereInRayFrame& sphere, float widening, float t_min, float t_max,

@@ -1,0 +1,250 @@
+// The block tests of trace/cone/cone_bound_block.h as Highway kernels. hwy/foreach_target.h
+// includes this file once per instruction set Highway compiles for (AVX-512, AVX2, SSE4, SSSE3
+// and a one-lane fallback on x86-64), each copy in its own namespace with that set's target
+// attributes; HWY_DYNAMIC_DISPATCH then calls the copy for the best set the CPU has, picked on
+// the first call and cached (one indirect call per block afterwards).
+//
+// Every kernel evaluates the expressions of its scalar reference (the `_scalar` functions of
+// cone_bound_block.h, and ConeSphereTest::circle_may_touch) in the same order, min and max as
+// std::min and std::max select (which operand wins on NaN), and this file is compiled without
+// contracting multiplies and adds into fused multiply-adds (trace/cone/CMakeLists.txt): the masks
+// and depths are the reference's bit for bit, so the traversal's choices, and its images, do not
+// depend on the CPU.
+
+#include "trace/cone/cone_block_simd.h"
+
+#include "common/footprint/point_weight.h"
+#include "trace/cone/cone_bound_block.h"
+#include "trace/cone/cone_bounds.h"
+#include "trace/cone/cone_ray.h"
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "trace/cone/cone_block_simd.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+HWY_BEFORE_NAMESPACE();
+namespace mrt {
+namespace HWY_NAMESPACE {
+namespace {
+
+namespace hn = hwy::HWY_NAMESPACE;
+
+/// Bit i set for lane i of `inside` (at most 16 lanes).
+template <class D>
+std::uint32_t lane_bits(D d, hn::Mask<D> inside) {
+    static_assert(hn::MaxLanes(D()) <= 16);
+    // StoreMaskBits writes whole bytes, (lanes + 7) / 8 of them.
+    std::array<std::uint8_t, 8> bytes{};
+    hn::StoreMaskBits(d, inside, bytes.data());
+    return static_cast<std::uint32_t>(bytes[0]) | (static_cast<std::uint32_t>(bytes[1]) << 8);
+}
+
+/// The bits below `count`: the members in use.
+std::uint32_t bits_below(std::uint32_t count) {
+    static_assert(kConeClusterSize < 32);
+    return (1u << count) - 1u;
+}
+
+/// spheres_near_axis_scalar, a vector of spheres at a time.
+std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t count,
+                                     const ConeRay& ray, float reach, float t_min, float t_max) {
+    const hn::CappedTag<float, kConeClusterSize> d;
+    const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
+    const std::uint32_t used = std::min(count, kConeClusterSize);
+    const auto ox = hn::Set(d, ray.origin.x());
+    const auto oy = hn::Set(d, ray.origin.y());
+    const auto oz = hn::Set(d, ray.origin.z());
+    const auto dx = hn::Set(d, ray.direction.x());
+    const auto dy = hn::Set(d, ray.direction.y());
+    const auto dz = hn::Set(d, ray.direction.z());
+    const auto ux = hn::Set(d, ray.cone.u.x());
+    const auto uy = hn::Set(d, ray.cone.u.y());
+    const auto uz = hn::Set(d, ray.cone.u.z());
+    const auto vx = hn::Set(d, ray.cone.v.x());
+    const auto vy = hn::Set(d, ray.cone.v.y());
+    const auto vz = hn::Set(d, ray.cone.v.z());
+    const auto reach_v = hn::Set(d, reach);
+    const auto t_min_v = hn::Set(d, t_min);
+    const auto t_max_v = hn::Set(d, t_max);
+    std::uint32_t mask = 0;
+    for (std::uint32_t k = 0; k < used; k += lanes) {
+        const auto px = hn::Load(d, block.x.data() + k) - ox;
+        const auto py = hn::Load(d, block.y.data() + k) - oy;
+        const auto pz = hn::Load(d, block.z.data() + k) - oz;
+        const auto t = px * dx + py * dy + pz * dz;
+        const auto a = px * ux + py * uy + pz * uz;
+        const auto b = px * vx + py * vy + pz * vz;
+        const auto r = hn::Load(d, block.radius.data() + k);
+        const auto within = reach_v + r;
+        const auto before = t + r < t_min_v;
+        const auto after = t - r > t_max_v;
+        const auto beside = a * a + b * b > within * within;
+        // Comparisons with a NaN are false: a damaged sphere is never before, after or beside.
+        const auto inside = hn::Not(hn::Or(hn::Or(before, after), beside));
+        mask |= lane_bits(d, inside) << k;
+    }
+    return mask & bits_below(used);
+}
+
+/// A vector of the codes at `codes` (unsigned or signed bytes) as floats.
+template <class D, typename Code>
+hn::Vec<D> codes_as_floats(D d, const Code* codes) {
+    const hn::Rebind<Code, D> d_code;
+    const hn::RebindToSigned<D> d_int;
+    return hn::ConvertTo(d, hn::PromoteTo(d_int, hn::LoadU(d_code, codes)));
+}
+
+/// voxels_within_clip_scalar, a vector of points at a time.
+std::uint32_t voxels_within_clip_simd(const ConeVoxelBlock& block, std::uint32_t count,
+                                      const VoxelGaussian& voxels) {
+    const hn::CappedTag<float, kConeClusterSize> d;
+    const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
+    const std::uint32_t used = std::min(count, kConeClusterSize);
+    const auto first_x = hn::Set(d, voxels.first.x());
+    const auto first_y = hn::Set(d, voxels.first.y());
+    const auto step_ix = hn::Set(d, voxels.step[0].x());
+    const auto step_iy = hn::Set(d, voxels.step[0].y());
+    const auto step_jx = hn::Set(d, voxels.step[1].x());
+    const auto step_jy = hn::Set(d, voxels.step[1].y());
+    const auto step_lx = hn::Set(d, voxels.step[2].x());
+    const auto step_ly = hn::Set(d, voxels.step[2].y());
+    const auto clip = hn::Set(d, voxels.clip);
+    const auto offset_stretch = hn::Set(d, voxels.offset_stretch);
+    std::uint32_t mask = 0;
+    for (std::uint32_t k = 0; k < used; k += lanes) {
+        const auto i = codes_as_floats(d, block.x.data() + k);
+        const auto j = codes_as_floats(d, block.y.data() + k);
+        const auto l = codes_as_floats(d, block.z.data() + k);
+        const auto gx = first_x + i * step_ix + j * step_jx + l * step_lx;
+        const auto gy = first_y + i * step_iy + j * step_jy + l * step_ly;
+        const auto reach =
+            clip + offset_stretch * hn::Abs(codes_as_floats(d, block.offset.data() + k));
+        // False for a NaN centre: its bit clears.
+        const auto inside = gx * gx + gy * gy <= reach * reach;
+        mask |= lane_bits(d, inside) << k;
+    }
+    return mask & bits_below(used);
+}
+
+/// ConeSphereTest::frobenius_squared at the depths `t`, from the test's coefficients.
+template <class D>
+hn::Vec<D> frobenius_squared(D d, const ConeSphereTest::CircleCoefficients& c, hn::Vec<D> t) {
+    const auto constant = hn::Set(d, c.constant);
+    const auto linear = hn::Set(d, c.linear);
+    const auto quadratic = hn::Set(d, c.quadratic);
+    const auto value = constant + t * (linear + t * quadratic);
+    const auto magnitude = constant + hn::Abs(t) * (hn::Abs(linear) + hn::Abs(t) * quadratic);
+    const auto zero = hn::Zero(d);
+    // std::max(0, value): 0 when value is NaN (overflowed coefficients).
+    const auto clamped = hn::IfThenElse(zero < value, value, zero);
+    return clamped + hn::Set(d, ConeSphereTest::kQuadraticRounding) * magnitude;
+}
+
+/// children_near_cone_scalar, a vector of children at a time: ConeRay::sphere_of and
+/// ConeSphereTest::circle_may_touch written out.
+std::uint32_t children_near_cone_simd(const ConeChildBlock& block, std::uint32_t count,
+                                      const ConeRay& ray, const ConeSphereTest& test, float t_min,
+                                      float t_max, std::array<float, kConeChildCount>& nearest) {
+    const hn::CappedTag<float, kConeChildCount> d;
+    const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
+    const ConeSphereTest::CircleCoefficients circle = test.circle();
+    const auto ox = hn::Set(d, ray.origin.x());
+    const auto oy = hn::Set(d, ray.origin.y());
+    const auto oz = hn::Set(d, ray.origin.z());
+    const auto dx = hn::Set(d, ray.direction.x());
+    const auto dy = hn::Set(d, ray.direction.y());
+    const auto dz = hn::Set(d, ray.direction.z());
+    const auto ux = hn::Set(d, ray.cone.u.x());
+    const auto uy = hn::Set(d, ray.cone.u.y());
+    const auto uz = hn::Set(d, ray.cone.u.z());
+    const auto vx = hn::Set(d, ray.cone.v.x());
+    const auto vy = hn::Set(d, ray.cone.v.y());
+    const auto vz = hn::Set(d, ray.cone.v.z());
+    const auto t_min_v = hn::Set(d, t_min);
+    const auto t_max_v = hn::Set(d, t_max);
+    const auto anisotropy_widening = hn::Set(d, 1.0f + circle.inverse_anisotropy_squared);
+    const auto clip_exponent = hn::Set(d, kPointWeightClipExponent);
+    std::uint32_t mask = 0;
+    for (std::uint32_t k = 0; k < kConeChildCount; k += lanes) {
+        const auto px = hn::Load(d, block.x.data() + k) - ox;
+        const auto py = hn::Load(d, block.y.data() + k) - oy;
+        const auto pz = hn::Load(d, block.z.data() + k) - oz;
+        // Eigen sums a 3-vector's dot product as x + (y + z).
+        const auto t = px * dx + (py * dy + pz * dz);
+        const auto a = px * ux + (py * uy + pz * uz);
+        const auto b = px * vx + (py * vy + pz * vz);
+        const auto r = hn::Load(d, block.radius.data() + k);
+        const auto w = hn::Load(d, block.widening.data() + k);
+        const auto front = t - r;
+        hn::StoreU(front, d, nearest.data() + k);
+        // std::max(t − r, t_min) and std::min(t + r, t_max): a NaN t_min or t_max is passed
+        // over, a NaN depth kept (and answered below).
+        const auto near = hn::IfThenElse(front < t_min_v, t_min_v, front);
+        const auto back = t + r;
+        const auto far = hn::IfThenElse(t_max_v < back, t_max_v, back);
+        const auto finite =
+            hn::And(hn::And(hn::IsFinite(near), hn::IsFinite(far)),
+                    hn::And(hn::And(hn::IsFinite(a), hn::IsFinite(b)), hn::IsFinite(w)));
+        const auto frobenius_near = frobenius_squared(d, circle, near);
+        const auto frobenius_far = frobenius_squared(d, circle, far);
+        const auto frobenius =
+            hn::IfThenElse(frobenius_near < frobenius_far, frobenius_far, frobenius_near);
+        const auto circle_reach =
+            hn::Sqrt(clip_exponent * (frobenius * anisotropy_widening + w * w)) + r;
+        const auto outside = hn::Or(near > far, a * a + b * b > circle_reach * circle_reach);
+        // Damaged input may touch: the sphere is kept.
+        mask |= lane_bits(d, hn::Or(hn::Not(finite), hn::Not(outside))) << k;
+    }
+    if (!circle.finite) {
+        mask = ~0u;
+    }
+    return mask & bits_below(std::min(count, kConeChildCount));
+}
+
+/// HWY_TARGET of the copy that runs.
+const char* target_name() {
+    return hwy::TargetName(HWY_TARGET);
+}
+
+}  // namespace
+}  // namespace HWY_NAMESPACE
+}  // namespace mrt
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace mrt {
+
+HWY_EXPORT(spheres_near_axis_simd);
+HWY_EXPORT(voxels_within_clip_simd);
+HWY_EXPORT(children_near_cone_simd);
+HWY_EXPORT(target_name);
+
+std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_t count,
+                                const ConeRay& ray, float reach, float t_min, float t_max) {
+    return HWY_DYNAMIC_DISPATCH(spheres_near_axis_simd)(block, count, ray, reach, t_min, t_max);
+}
+
+std::uint32_t voxels_within_clip(const ConeVoxelBlock& block, std::uint32_t count,
+                                 const VoxelGaussian& voxels) {
+    return HWY_DYNAMIC_DISPATCH(voxels_within_clip_simd)(block, count, voxels);
+}
+
+std::uint32_t children_near_cone(const ConeChildBlock& block, std::uint32_t count,
+                                 const ConeRay& ray, const ConeSphereTest& test, float t_min,
+                                 float t_max, std::array<float, kConeChildCount>& nearest) {
+    return HWY_DYNAMIC_DISPATCH(children_near_cone_simd)(block, count, ray, test, t_min, t_max,
+                                                         nearest);
+}
+
+const char* block_kernel_target() {
+    return HWY_DYNAMIC_DISPATCH(target_name)();
+}
+
+}  // namespace mrt
+#endif  // HWY_ONCE
