@@ -180,7 +180,7 @@ class Walk {
     void object(ConeSpace& space, std::uint32_t index, float weight) {
         const HierarchyObject& object = m_view.objects[index];
         space.object = index;
-        visit(space, object.first_node, weight, Level::ByFootprint);
+        visit(space, object.first_node, weight, Level::ByFootprint, Circle::Untested);
     }
 
   private:
@@ -197,19 +197,25 @@ class Walk {
         return node.side / static_cast<float>(m_view.grid);
     }
 
+    /// Whether a node's sphere has passed the circle test of ConeSphereTest already: a node's
+    /// children are tested together, in one block (children_near_cone), before they are visited.
+    enum class Circle : std::uint8_t { Untested, Passed };
+
     /// Steps 1 and the early termination: false when the cone cannot reach the node.
-    bool look(const ConeSpace& space, const HierarchyNode& node, Look& look) {
+    bool look(const ConeSpace& space, const HierarchyNode& node, Circle circle, Look& look) {
         if (m_stop != nullptr && m_stop->load(std::memory_order_relaxed)) {
             return false;
         }
-        ++m_stats.spheres_tested;
         look.t_min = m_t_min / space.world_per_t;
         look.t_max = m_t_max / space.world_per_t;
         look.sphere = space.ray.sphere_of(to_vec(node.sphere_centre), node.sphere_radius);
         const FootprintCone& cone = space.ray.cone;
         const float widening = kPointKernelRadius * spacing(node);
-        if (!space.bounds.circle_may_touch(look.sphere, widening, look.t_min, look.t_max)) {
-            return false;
+        if (circle == Circle::Untested) {
+            ++m_stats.spheres_tested;
+            if (!space.bounds.circle_may_touch(look.sphere, widening, look.t_min, look.t_max)) {
+                return false;
+            }
         }
         if ((look.sphere.t - look.sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
             ++m_stats.culled_by_opacity;
@@ -240,10 +246,11 @@ class Walk {
     };
 
     /// Steps 2 and 3 at one node.
-    void visit(const ConeSpace& space, std::uint32_t index, float weight, Level level) {
+    void visit(const ConeSpace& space, std::uint32_t index, float weight, Level level,
+               Circle circle) {
         const HierarchyNode& node = m_view.nodes[index];
         Look l;
-        if (!look(space, node, l)) {
+        if (!look(space, node, circle, l)) {
             return;
         }
         triangles(space, index, l, weight);
@@ -260,36 +267,39 @@ class Walk {
                                          : 1.0f;
                 points(space, index, l, weight * coarse);
                 if (coarse < 1.0f) {
-                    below(space, node, weight * (1.0f - coarse), Level::Finer);
+                    below(space, index, weight * (1.0f - coarse), Level::Finer);
                 }
                 return;
             }
         }
-        below(space, node, weight, Level::ByFootprint);
+        below(space, index, weight, Level::ByFootprint);
     }
 
     /// The children, nearest first (early termination culls more behind a near surface), and
     /// the instances a group node holds.
-    void below(const ConeSpace& space, const HierarchyNode& node, float weight, Level level) {
+    void below(const ConeSpace& space, std::uint32_t index, float weight, Level level) {
+        const HierarchyNode& node = m_view.nodes[index];
         if (node.child_mask != 0) {
-            std::array<std::pair<float, std::uint32_t>, 8> order;
-            int count = 0;
-            for (int c = 0; c < 8; ++c) {
-                if ((node.child_mask & (1u << c)) == 0) {
-                    continue;
-                }
-                const std::uint32_t child = node.first_child + static_cast<std::uint32_t>(count);
-                const HierarchyNode& n = m_view.nodes[child];
-                const float t = space.ray.frame_of(to_vec(n.sphere_centre)).t - n.sphere_radius;
-                int i = count++;
-                for (; i > 0 && order[static_cast<std::size_t>(i - 1)].first > t; --i) {
+            const auto count = static_cast<std::uint32_t>(std::popcount(node.child_mask));
+            m_stats.spheres_tested += count;
+            std::array<float, kConeChildCount> nearest;
+            const std::uint32_t near = children_near_cone(
+                m_geometry.children(index), count, space.ray, space.bounds,
+                m_t_min / space.world_per_t, m_t_max / space.world_per_t, nearest);
+            // Those the cone may touch, nearest first (ties in the children's order).
+            std::array<std::uint32_t, kConeChildCount> order;
+            int kept = 0;
+            for (std::uint32_t bits = near; bits != 0; bits &= bits - 1) {
+                const auto k = static_cast<std::uint32_t>(std::countr_zero(bits));
+                int i = kept++;
+                for (; i > 0 && nearest[order[static_cast<std::size_t>(i - 1)]] > nearest[k]; --i) {
                     order[static_cast<std::size_t>(i)] = order[static_cast<std::size_t>(i - 1)];
                 }
-                order[static_cast<std::size_t>(i)] = {t, child};
+                order[static_cast<std::size_t>(i)] = k;
             }
-            for (int i = 0; i < count; ++i) {
-                const std::uint32_t child = order[static_cast<std::size_t>(i)].second;
-                visit(space, child, weight, level);
+            for (int i = 0; i < kept; ++i) {
+                visit(space, node.first_child + order[static_cast<std::size_t>(i)], weight, level,
+                      Circle::Passed);
             }
         }
         for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
@@ -943,6 +953,25 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
             kPointKernelRadius * root.side / static_cast<float>(m_view.grid), to_group));
     }
     m_node_clusters.resize(m_view.nodes.size());
+    m_child_block.assign(m_view.nodes.size(), kNoChildren);
+    for (std::size_t n = 0; n < m_view.nodes.size(); ++n) {
+        const HierarchyNode& node = m_view.nodes[n];
+        if (node.child_mask == 0) {
+            continue;
+        }
+        m_child_block[n] = static_cast<std::uint32_t>(m_child_blocks.size());
+        ConeChildBlock& block = m_child_blocks.emplace_back();
+        const auto count = static_cast<std::uint32_t>(std::popcount(node.child_mask));
+        for (std::uint32_t k = 0; k < count; ++k) {
+            const HierarchyNode& child = m_view.nodes[node.first_child + k];
+            block.x[k] = child.sphere_centre[0];
+            block.y[k] = child.sphere_centre[1];
+            block.z[k] = child.sphere_centre[2];
+            block.radius[k] = child.sphere_radius;
+            // As the node's own test widens it (Walk::look).
+            block.widening[k] = kPointKernelRadius * (child.side / static_cast<float>(m_view.grid));
+        }
+    }
     m_point_order.reserve(m_view.core.size());
     m_triangle_order.reserve(m_view.node_triangles.size());
     std::vector<std::uint32_t> items;

@@ -170,6 +170,10 @@ class ConeGeometry {
     const ClosedSurfaces& closed_surfaces() const { return m_closed; }
 
     const ConeNodeClusters& clusters(std::uint32_t node) const { return m_node_clusters[node]; }
+    /// The bounding spheres of a node's children (a node with children only), tested together.
+    const ConeChildBlock& children(std::uint32_t node) const {
+        return m_child_blocks[m_child_block[node]];
+    }
     const ConeCluster& point_cluster(std::uint32_t i) const { return m_point_clusters[i]; }
     /// The voxel codes and offsets of point cluster i's points, in their point_order().
     const ConeVoxelBlock& point_voxels(std::uint32_t i) const { return m_point_voxels[i]; }
@@ -192,6 +196,9 @@ class ConeGeometry {
     std::vector<ConeInstanceBound> m_instance_bounds;
     ClosedSurfaces m_closed;
     std::vector<ConeNodeClusters> m_node_clusters;
+    static constexpr std::uint32_t kNoChildren = 0xffffffffu;
+    std::vector<std::uint32_t> m_child_block;  ///< Per node, into m_child_blocks.
+    std::vector<ConeChildBlock> m_child_blocks;
     std::vector<ConeCluster> m_point_clusters;
     std::vector<ConeVoxelBlock> m_point_voxels;
     std::vector<ConeCluster> m_triangle_clusters;
