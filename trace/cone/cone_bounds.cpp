@@ -46,16 +46,16 @@ bool ConeSphereTest::depths(const SphereInRayFrame& sphere, float widening, floa
            std::isfinite(widening);
 }
 
-float ConeSphereTest::reach_along(float t, const Vec2f& e, float widening_squared) const {
-    // |F(t)ᵀe|² + |B(t)ᵀe|²: both parts are affine in t, so the bound stays the norm of a vector
-    // of affine functions of t (convex), without the square root of G. ‖F‖₂² is bounded by
-    // ‖F‖_F² (at most twice it): still conservative, and no eigen-decomposition per end.
-    float along = (m_cone.pixel_at(t).transpose() * e).squaredNorm();
+Vec3f ConeSphereTest::second_moments(float t) const {
+    // G·Gᵀ = F·Fᵀ + B·Bᵀ as (a, b, c) of [[a, b], [b, c]]: |Gᵀe|² = eᵀ·G·Gᵀ·e along any unit e,
+    // the quadratic form of one symmetric matrix per depth instead of two products per axis.
+    const Mat2f f = m_cone.pixel_at(t);
+    Vec3f m(f.row(0).squaredNorm(), f.row(0).dot(f.row(1)), f.row(1).squaredNorm());
     if (m_cone.blurred) {
-        along += ((m_cone.blur_start + t * m_cone.blur_incr).transpose() * e).squaredNorm();
+        const Mat2f b = m_cone.blur_start + t * m_cone.blur_incr;
+        m += Vec3f(b.row(0).squaredNorm(), b.row(0).dot(b.row(1)), b.row(1).squaredNorm());
     }
-    return std::sqrt(along + frobenius_squared(t) * m_inverse_anisotropy_squared +
-                     widening_squared);
+    return m;
 }
 
 bool ConeSphereTest::circle_may_touch(const SphereInRayFrame& sphere, float widening, float t_min,
@@ -90,13 +90,26 @@ bool ConeSphereTest::rectangle_may_touch(const SphereInRayFrame& sphere, float w
     if (near > far) {
         return false;
     }
-    const float rho = std::sqrt(kPointWeightClipExponent);
-    const float widening_squared = widening * widening;
+    // Along a unit e the clip ellipse reaches at most ρ·√(|Gᵀe|² + ‖G‖_F²/A² + w²) (the file
+    // comment), convex in t: its square is compared, so no root is taken. The sphere misses
+    // when |x·e| − r exceeds it at both ends.
+    const float isotropic_near =
+        frobenius_squared(near) * m_inverse_anisotropy_squared + widening * widening;
+    const float isotropic_far =
+        frobenius_squared(far) * m_inverse_anisotropy_squared + widening * widening;
+    const Vec3f m_near = second_moments(near);
+    const Vec3f m_far = second_moments(far);
     const Vec2f perpendicular(-axis.y(), axis.x());
     for (const Vec2f& e : {axis, perpendicular}) {
-        const float reach = rho * std::max(reach_along(near, e, widening_squared),
-                                           reach_along(far, e, widening_squared));
-        if (std::abs(sphere.offset.dot(e)) > reach + sphere.radius) {
+        const float ee = e.x() * e.x();
+        const float ef = 2.0f * e.x() * e.y();
+        const float ff = e.y() * e.y();
+        const float along_near = ee * m_near.x() + ef * m_near.y() + ff * m_near.z();
+        const float along_far = ee * m_far.x() + ef * m_far.y() + ff * m_far.z();
+        const float reach_squared = kPointWeightClipExponent * std::max(along_near + isotropic_near,
+                                                                        along_far + isotropic_far);
+        const float beyond = std::abs(sphere.offset.dot(e)) - sphere.radius;
+        if (beyond > 0.0f && beyond * beyond > reach_squared) {
             return false;
         }
     }

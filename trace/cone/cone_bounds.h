@@ -93,8 +93,8 @@ class ConeSphereTest {
     /// the tests answer true).
     bool depths(const SphereInRayFrame& sphere, float widening, float t_min, float t_max,
                 float& near, float& far) const;
-    /// The bound on the clip ellipse's reach along the unit e at depth t, over ρ.
-    float reach_along(float t, const Vec2f& e, float widening_squared) const;
+    /// F·Fᵀ + B·Bᵀ at depth t (footprint and blur) as (a, b, c) of [[a, b], [b, c]].
+    Vec3f second_moments(float t) const;
 
     FootprintCone m_cone;
     bool m_finite = false;
