@@ -434,6 +434,12 @@ class Walk {
         const float stretch = largest_singular_value(frame.inverse) * (1.0f + kBoundRelativeMargin);
         const float offset_stretch = h * stretch / 127.0f;  // per step of the offset's code
         const VoxelsInRayFrame voxels(space.ray, frame, origin, h, offset_stretch);
+        // The points of the surface a cone leaves (point(): the leaving test), skipped a whole
+        // flat cluster at a time; half the tolerance, so that the points' own test, rounded in
+        // the ray's frame, would have skipped each of them too. Where the cone may enter a solid
+        // through some of them (a shadow cone on a closed surface) they are tested one by one.
+        const bool skips_leaving = l.t_min > 0.0f && (kShade || solid == nullptr);
+        const float leaving = 0.5f * kCoplanarPoint * h;
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
@@ -444,6 +450,11 @@ class Walk {
             }
             const float reach = voxels.gaussian.clip + cluster.radius * stretch;
             if (!((frame.inverse * centre.offset).squaredNorm() <= reach * reach)) {
+                continue;
+            }
+            if (skips_leaving &&
+                cluster_leaves(m_geometry.point_cluster_plane(c), to_vec(cluster.centre),
+                               cluster.radius, space.ray.origin, leaving)) {
                 continue;
             }
             m_stats.points_tested += cluster.count;
@@ -991,6 +1002,17 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
             [](std::uint32_t) { return 0.0f; }, m_point_clusters, m_point_order);
         c.point_cluster_count =
             static_cast<std::uint32_t>(m_point_clusters.size()) - c.first_point_cluster;
+        for (std::uint32_t k = c.first_point_cluster;
+             k < c.first_point_cluster + c.point_cluster_count; ++k) {
+            m_point_cluster_planes.push_back(cluster_plane(
+                to_vec(m_point_clusters[k].centre), m_point_clusters[k].first,
+                m_point_clusters[k].count, [&](std::uint32_t j) {
+                    const std::uint32_t point = m_point_order[j];
+                    return std::pair{
+                        point_position(node, m_view.grid, m_view.core[point], m_view.offset[point]),
+                        decode_normal(m_view.core[point].normal)};
+                }));
+        }
         append_blocks(m_point_clusters, c.first_point_cluster, c.point_cluster_count, m_point_order,
                       m_point_voxels,
                       [&](ConeVoxelBlock& block, std::uint32_t i, std::uint32_t point) {

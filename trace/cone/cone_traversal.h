@@ -36,6 +36,7 @@
 #include "trace/cone/abuffer.h"
 #include "trace/cone/closed_surfaces.h"
 #include "trace/cone/cone_bound_block.h"
+#include "trace/cone/cone_cluster_plane.h"
 #include "trace/cone/cone_instance_bound.h"
 #include "trace/cone/cone_ray.h"
 #include "trace/cone/cone_surface.h"
@@ -175,6 +176,9 @@ class ConeGeometry {
         return m_child_blocks[m_child_block[node]];
     }
     const ConeCluster& point_cluster(std::uint32_t i) const { return m_point_clusters[i]; }
+    const ConeClusterPlane& point_cluster_plane(std::uint32_t i) const {
+        return m_point_cluster_planes[i];
+    }
     /// The voxel codes and offsets of point cluster i's points, in their point_order().
     const ConeVoxelBlock& point_voxels(std::uint32_t i) const { return m_point_voxels[i]; }
     const ConeCluster& triangle_cluster(std::uint32_t i) const { return m_triangle_clusters[i]; }
@@ -201,6 +205,7 @@ class ConeGeometry {
     std::vector<ConeChildBlock> m_child_blocks;
     std::vector<ConeCluster> m_point_clusters;
     std::vector<ConeVoxelBlock> m_point_voxels;
+    std::vector<ConeClusterPlane> m_point_cluster_planes;
     std::vector<ConeCluster> m_triangle_clusters;
     std::vector<std::uint32_t> m_point_order;
     std::vector<std::uint32_t> m_triangle_order;

@@ -1,0 +1,139 @@
+// The cluster test a cone leaving a surface uses (trace/cone/cone_cluster_plane.h): whenever it
+// says a cluster's members all have their tangent planes within the tolerance of the apex, each
+// member does (recomputed in double), for flat, curved and noisy clusters and apexes on, near and
+// off the surface; and it does say so for a flat cluster the apex lies in, where the traversal
+// needs it to.
+
+#include "trace/cone/cone_cluster_plane.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <random>
+#include <utility>
+#include <vector>
+
+namespace mrt {
+namespace {
+
+struct Member {
+    Vec3f position;
+    Vec3f normal;
+};
+
+/// 16 points on a patch of a sphere of radius `curvature_radius` (flat for infinity) around
+/// `centre` facing `up`, `size` across, each moved along its normal by up to `noise`.
+std::vector<Member> patch(std::mt19937_64& rng, const Vec3f& centre, const Vec3f& up, float size,
+                          float curvature_radius, float noise) {
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    Vec3f a;
+    Vec3f b;
+    a = up.unitOrthogonal();
+    b = up.cross(a);
+    std::vector<Member> members;
+    for (int k = 0; k < 16; ++k) {
+        const float x = 0.5f * size * unit(rng);
+        const float y = 0.5f * size * unit(rng);
+        Member m;
+        if (std::isinf(curvature_radius)) {
+            m.normal = up;
+            m.position = centre + x * a + y * b;
+        } else {
+            const Vec3f sphere_centre = centre - curvature_radius * up;
+            const Vec3f direction = (curvature_radius * up + x * a + y * b).normalized();
+            m.normal = direction;
+            m.position = sphere_centre + curvature_radius * direction;
+        }
+        m.position += noise * unit(rng) * m.normal;
+        members.push_back(m);
+    }
+    return members;
+}
+
+ConeClusterPlane plane_of(const std::vector<Member>& members, const Vec3f& centre) {
+    return cluster_plane(centre, 0, static_cast<std::uint32_t>(members.size()),
+                         [&](std::uint32_t j) {
+                             return std::pair{members[j].position, members[j].normal};
+                         });
+}
+
+float radius_of(const std::vector<Member>& members, const Vec3f& centre) {
+    float r = 0.0f;
+    for (const Member& m : members) {
+        r = std::max(r, (m.position - centre).norm());
+    }
+    return r;
+}
+
+TEST(ConeClusterPlane, SaysLeavesOnlyWhereEveryMemberLeaves) {
+    std::mt19937_64 rng(23);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::uniform_real_distribution<float> positive(0.0f, 1.0f);
+    int said = 0;
+    int not_said = 0;
+    for (int n = 0; n < 20000; ++n) {
+        const float scale = std::pow(10.0f, 2.0f * unit(rng));
+        const Vec3f centre = scale * 10.0f * Vec3f(unit(rng), unit(rng), unit(rng));
+        const Vec3f up = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
+        const float size = scale * (0.1f + positive(rng));
+        const int kind = n % 3;
+        const float curvature = kind == 0 ? INFINITY : size * (2.0f + 100.0f * positive(rng));
+        const float noise = kind == 2 ? size * 1e-3f * positive(rng) : 0.0f;
+        const std::vector<Member> members = patch(rng, centre, up, size, curvature, noise);
+        Vec3f box_centre = Vec3f::Zero();
+        for (const Member& m : members) {
+            box_centre += m.position / 16.0f;
+        }
+        const ConeClusterPlane plane = plane_of(members, box_centre);
+        const float radius = radius_of(members, box_centre);
+        // The apex on the surface near the patch, or a little off it, or far.
+        const float tolerance = size * 0.01f * positive(rng);
+        const Vec3f along = up.unitOrthogonal() * size * 3.0f * unit(rng);
+        const float off = tolerance * 3.0f * unit(rng) * (n % 5 == 0 ? 100.0f : 1.0f);
+        const Vec3f apex = members[0].position + along + off * members[0].normal;
+        if (!cluster_leaves(plane, box_centre, radius, apex, tolerance)) {
+            ++not_said;
+            continue;
+        }
+        ++said;
+        for (const Member& m : members) {
+            const double distance =
+                std::abs(m.normal.cast<double>().dot((m.position - apex).cast<double>()));
+            EXPECT_LE(distance, static_cast<double>(tolerance) * (1.0 + 1e-5) + 1e-7 * scale)
+                << "case " << n << " kind " << kind;
+        }
+    }
+    EXPECT_GT(said, 1000);
+    EXPECT_GT(not_said, 2000);
+}
+
+TEST(ConeClusterPlane, AFlatClusterIsLeftByAConeStartingInIt) {
+    std::mt19937_64 rng(3);
+    const Vec3f up = Vec3f(0.2f, 1.0f, -0.3f).normalized();
+    const std::vector<Member> members =
+        patch(rng, Vec3f(5.0f, 1.0f, -2.0f), up, 1.0f, INFINITY, 0.0f);
+    Vec3f centre = Vec3f::Zero();
+    for (const Member& m : members) {
+        centre += m.position / 16.0f;
+    }
+    const ConeClusterPlane plane = plane_of(members, centre);
+    EXPECT_LT(plane.spread, 1e-6f);
+    EXPECT_LT(plane.thickness, 1e-5f);
+    const float radius = radius_of(members, centre);
+    EXPECT_TRUE(cluster_leaves(plane, centre, radius, members[3].position, 1e-3f));
+    // Off the plane by more than the tolerance: not left.
+    EXPECT_FALSE(cluster_leaves(plane, centre, radius, members[3].position + 2e-3f * up, 1e-3f));
+}
+
+TEST(ConeClusterPlane, NormalsThatCancelHaveNoPlane) {
+    const std::vector<Member> members = {{Vec3f::Zero(), Vec3f::UnitY()},
+                                         {Vec3f::UnitX(), -Vec3f::UnitY()}};
+    const ConeClusterPlane plane = plane_of(members, Vec3f(0.5f, 0.0f, 0.0f));
+    EXPECT_TRUE(std::isinf(plane.spread));
+    EXPECT_FALSE(cluster_leaves(plane, Vec3f(0.5f, 0.0f, 0.0f), 0.5f, Vec3f::Zero(), 1.0f));
+}
+
+}  // namespace
+}  // namespace mrt

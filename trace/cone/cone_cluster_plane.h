@@ -1,0 +1,65 @@
+#pragma once
+// How flat a cluster of points is, and the test that a cone leaving a surface uses it for: the
+// cone skips the points whose tangent planes pass within a tolerance of its apex (the surface it
+// starts on), and a cluster whose every point is such is skipped without its points. On the
+// complex scene half the points that passed the cone's centre tests were of the surface the cone
+// was leaving (secondary cones off glass and mirrors, shadow cones off the ground).
+
+#include "common/math/math.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace mrt {
+
+/// A point cluster's members' positions p and unit normals n_p against the plane through the
+/// cluster's centre c with their mean normal n_c.
+struct ConeClusterPlane {
+    std::array<float, 3> normal{};  ///< Unit mean normal n_c.
+    float thickness = 0.0f;         ///< max |n_c·(p − c)|.
+    /// max |n_p − n_c|; infinite where the normals cancel (no plane).
+    float spread = 0.0f;
+};
+static_assert(sizeof(ConeClusterPlane) == 20);
+
+/// The plane of the members j in [first, first + count) around `centre`, whose position and
+/// unit normal surface(j) gives as a pair.
+template <class Surface>
+ConeClusterPlane cluster_plane(const Vec3f& centre, std::uint32_t first, std::uint32_t count,
+                               Surface&& surface) {
+    Vec3f sum = Vec3f::Zero();
+    for (std::uint32_t j = first; j < first + count; ++j) {
+        sum += surface(j).second;
+    }
+    ConeClusterPlane plane;
+    const float length = sum.norm();
+    if (!(length > 0.0f)) {
+        plane.spread = std::numeric_limits<float>::infinity();
+        return plane;
+    }
+    const Vec3f normal = sum / length;
+    for (std::uint32_t j = first; j < first + count; ++j) {
+        const auto [position, n] = surface(j);
+        plane.thickness = std::max(plane.thickness, std::abs(normal.dot(position - centre)));
+        plane.spread = std::max(plane.spread, (n - normal).norm());
+    }
+    plane.normal = {normal.x(), normal.y(), normal.z()};
+    return plane;
+}
+
+/// Whether every member of a cluster (centre c, bounding radius r) has its tangent plane within
+/// `tolerance` of `apex`: |n_p·(p − a)| ≤ |n_c·(c − a)| + thickness + spread·(|c − a| + r).
+/// Sufficient, not necessary: false says nothing about the members.
+inline bool cluster_leaves(const ConeClusterPlane& plane, const Vec3f& centre, float radius,
+                           const Vec3f& apex, float tolerance) {
+    const Vec3f apart = centre - apex;
+    const Vec3f normal(plane.normal[0], plane.normal[1], plane.normal[2]);
+    const float bound =
+        std::abs(normal.dot(apart)) + plane.thickness + plane.spread * (apart.norm() + radius);
+    return bound <= tolerance;
+}
+
+}  // namespace mrt
