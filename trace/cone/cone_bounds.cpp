@@ -38,6 +38,18 @@ ConeSphereTest::ConeSphereTest(const FootprintCone& cone, float max_anisotropy) 
     m_finite = !std::isnan(m_constant) && !std::isnan(m_linear) && !std::isnan(m_quadratic);
 }
 
+ConeSphereTest::ConeSphereTest(const ConeSphereTest& parent, const FootprintCone& cone, float scale)
+    : m_cone(cone),
+      m_finite(parent.m_finite),
+      m_inverse_anisotropy_squared(parent.m_inverse_anisotropy_squared) {
+    // G'(t') = scale·G(t'/scale): ‖G'(t')‖² = scale²·(c + l·t'/scale + q·t'²/scale²). Each
+    // coefficient gains one rounding, well inside kQuadraticRounding's margin.
+    m_constant = parent.m_constant * (scale * scale);
+    m_linear = parent.m_linear * scale;
+    m_quadratic = parent.m_quadratic;
+    m_finite = m_finite && std::isfinite(scale) && !std::isnan(m_constant) && !std::isnan(m_linear);
+}
+
 bool ConeSphereTest::depths(const SphereInRayFrame& sphere, float widening, float t_min,
                             float t_max, float& near, float& far) const {
     near = std::max(sphere.t - sphere.radius, t_min);

@@ -38,6 +38,10 @@ class ConeSphereTest {
   public:
     /// The cone's footprints are clamped to `max_anisotropy` (≥ 1) before points are weighed.
     ConeSphereTest(const FootprintCone& cone, float max_anisotropy);
+    /// The test of `parent`'s cone seen through a similarity that scales lengths by `scale`
+    /// (map_cone_similar: `cone`'s footprints are the parent's times scale at scale times its
+    /// depths), its coefficients scaled instead of recomputed from the matrices.
+    ConeSphereTest(const ConeSphereTest& parent, const FootprintCone& cone, float scale);
     /// No cone yet: every test answers true (as for damaged input) until one is assigned.
     ConeSphereTest() = default;
 

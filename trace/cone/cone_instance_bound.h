@@ -23,6 +23,9 @@ struct ConeInstanceBound {
     float radius = 0.0f;    ///< Padded for the map's and the tests' rounding.
     float widening = 0.0f;  ///< The root's point kernel radius, in group units.
     bool similarity = false;
+    /// Object length per group length, where the map is a similarity to within a few
+    /// roundings of its float matrix, so that entering may use map_cone_similar; 0 elsewhere.
+    float object_scale = 0.0f;
 };
 
 /// The bound of an object whose root sphere is (centre, radius) and whose root's points are

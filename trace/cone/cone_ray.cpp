@@ -34,6 +34,27 @@ MappedCone map_cone(const ConeRay& ray, const Affine3f& to_object) {
     return mapped;
 }
 
+MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, float scale) {
+    MappedCone mapped;
+    mapped.scale = scale;
+    const Mat3f turn = to_object.linear() / scale;
+    ConeRay& to = mapped.ray;
+    to.origin = to_object * ray.origin;
+    to.direction = turn * ray.direction;
+    FootprintCone& cone = to.cone;
+    const FootprintCone& from = ray.cone;
+    cone.u = turn * from.u;
+    cone.v = turn * from.v;
+    // In the turned frame the map is scale·I: offsets scale, and per unit of the new t
+    // (scale times the old) the increments stay.
+    cone.start_dev = scale * from.start_dev;
+    cone.incr_dev = from.incr_dev;
+    cone.blurred = from.blurred;
+    cone.blur_start = scale * from.blur_start;
+    cone.blur_incr = from.blur_incr;
+    return mapped;
+}
+
 std::ostream& operator<<(std::ostream& os, const SphereInRayFrame& s) {
     return os << "SphereInRayFrame{t " << s.t << ", offset (" << s.offset.x() << ", "
               << s.offset.y() << "), radius " << s.radius << "}";

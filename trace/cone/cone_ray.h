@@ -67,6 +67,12 @@ struct MappedCone {
 /// the mapped cone itself, scaled.
 MappedCone map_cone(const ConeRay& ray, const Affine3f& to_object);
 
+/// map_cone for a similarity `to_object` of scale `scale` (its linear part is scale times an
+/// orthogonal matrix Q): the cone's frame turns with the map (u, v → Q·u, Q·v) and its
+/// footprints scale, with no new basis and no 2×2 products. The frame differs from map_cone's
+/// by a turn about the axis, which no consumer of a footprint's ellipse sees.
+MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, float scale);
+
 struct ConePointHit {
     /// Depth along the ray of the surface the point stands for: where the axis meets the
     /// point's tangent plane (Zwicker et al.'s ray–splat intersection), blended towards the

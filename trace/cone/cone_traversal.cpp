@@ -129,13 +129,18 @@ float start_radius(const FootprintCone& cone) {
 }
 
 /// The cone of `parent` (in a group's space) in the space of an instance's object.
+/// `object_scale` is the instance's ConeInstanceBound::object_scale: where it is a similarity,
+/// its cone and sphere test are the parent's turned and scaled.
 ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f& normal_to_group,
-                float max_anisotropy) {
+                float object_scale, float max_anisotropy) {
     ConeSpace space;
-    const MappedCone mapped = map_cone(parent.ray, to_object);
+    const bool similar = object_scale > 0.0f;
+    const MappedCone mapped = similar ? map_cone_similar(parent.ray, to_object, object_scale)
+                                      : map_cone(parent.ray, to_object);
     space.ray = mapped.ray;
     space.start = start_radius(space.ray.cone);
-    space.bounds = ConeSphereTest(space.ray.cone, max_anisotropy);
+    space.bounds = similar ? ConeSphereTest(parent.bounds, space.ray.cone, object_scale)
+                           : ConeSphereTest(space.ray.cone, max_anisotropy);
     space.world_per_t = parent.world_per_t / mapped.scale;
     space.parent = &parent;
     space.normal_to_parent = &normal_to_group;
@@ -308,8 +313,9 @@ class Walk {
                 continue;
             }
             ++m_stats.instances_entered;
-            ConeSpace inner = enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i),
-                                    m_options.max_anisotropy);
+            ConeSpace inner =
+                enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i),
+                      m_geometry.instance_bound(i).object_scale, m_options.max_anisotropy);
             inner.id = ++m_spaces;
             object(inner, m_view.instances[i].object, weight);
         }

@@ -2,7 +2,8 @@
 // instance root's own sphere test would after the cone is mapped into the instance: never "no"
 // where the object-space test says "yes" (the traversal would lose geometry), and rarely "yes"
 // where it says "no" (it would enter for nothing). And map_cone, which that rests on: under a
-// similarity the mapped cone is the group's cone carried over by the map.
+// similarity the mapped cone is the group's cone carried over by the map, and map_cone_similar's
+// turned and scaled copy (with its sphere test's scaled coefficients) is the same cone.
 //
 // The reference for the first is ConeSphereTest in the object space map_cone gives; for the
 // second, the group-space cone's axis and footprint ellipses pushed through the map.
@@ -84,6 +85,46 @@ TEST(ConeInstanceBound, MappedConeIsTheGroupsConeCarriedOverBySimilarities) {
         const Mat3f mapped_moments = mapped_columns * mapped_columns.transpose();
         EXPECT_LT((moments - mapped_moments).norm(), 1e-5f * (moments.norm() + 1e-12f))
             << "scale " << mapped.scale;
+    }
+}
+
+TEST(ConeInstanceBound, SimilarMapTurnsAndScalesTheConeAsTheGeneralMapDoes) {
+    std::mt19937_64 rng(9);
+    std::uniform_real_distribution<float> positive(0.0f, 10.0f);
+    for (int n = 0; n < 2000; ++n) {
+        const ConeRay ray = random_cone(rng);
+        const Instance instance = random_similarity(rng);
+        const ConeInstanceBound bound =
+            instance_bound(Vec3f::Zero(), 1.0f, 0.0f, instance.to_group);
+        ASSERT_GT(bound.object_scale, 0.0f);
+        const MappedCone general = map_cone(ray, instance.to_object);
+        const MappedCone similar = map_cone_similar(ray, instance.to_object, bound.object_scale);
+        EXPECT_NEAR(similar.scale, general.scale, 1e-5f * general.scale);
+        EXPECT_LT((similar.ray.origin - general.ray.origin).norm(),
+                  1e-5f * (general.ray.origin.norm() + general.scale));
+        EXPECT_LT((similar.ray.direction - general.ray.direction).norm(), 1e-5f);
+        // An orthonormal frame around the axis, and the same footprint ellipses at every depth.
+        EXPECT_NEAR(similar.ray.cone.u.norm(), 1.0f, 1e-5f);
+        EXPECT_NEAR(similar.ray.cone.v.norm(), 1.0f, 1e-5f);
+        EXPECT_NEAR(similar.ray.cone.u.dot(similar.ray.cone.v), 0.0f, 1e-5f);
+        EXPECT_NEAR(similar.ray.cone.u.dot(similar.ray.direction), 0.0f, 1e-5f);
+        const float t = general.scale * positive(rng);
+        const Mat32f a = general.ray.cone.basis() * general.ray.cone.at(t);
+        const Mat32f b = similar.ray.cone.basis() * similar.ray.cone.at(t);
+        const Mat3f moments = a * a.transpose();
+        EXPECT_LT((moments - b * b.transpose()).norm(), 1e-5f * (moments.norm() + 1e-12f));
+        // The scaled sphere test bounds the mapped cone's Frobenius norm as a fresh one does.
+        const ConeSphereTest parent(ray.cone, 8.0f);
+        const ConeSphereTest scaled(parent, similar.ray.cone, bound.object_scale);
+        const Mat2f f = similar.ray.cone.pixel_at(t);
+        double exact = f.cast<double>().squaredNorm();
+        if (similar.ray.cone.blurred) {
+            exact += (similar.ray.cone.blur_start + t * similar.ray.cone.blur_incr)
+                         .cast<double>()
+                         .squaredNorm();
+        }
+        EXPECT_GE(static_cast<double>(scaled.frobenius_squared(t)), exact * (1.0 - 1e-6));
+        EXPECT_LE(static_cast<double>(scaled.frobenius_squared(t)), exact * (1.0 + 1e-4) + 1e-12);
     }
 }
 
