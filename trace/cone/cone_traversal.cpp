@@ -671,13 +671,16 @@ class Walk {
                 // the triangles around a shared edge weigh exactly 1 together wherever they
                 // are kept.
                 const float reach = kCullMargin * triangle_clip_radius(m_options.triangle_weight);
+                std::array<Vec2f, 3> y;
+                for (std::size_t i = 0; i < 3; ++i) {
+                    y[i] = frames[i].map(vertices[i].offset);
+                }
                 for (int axis = 0; axis < 2; ++axis) {
                     float lo = std::numeric_limits<float>::infinity();
                     float hi = -lo;
                     for (std::size_t i = 0; i < 3; ++i) {
-                        const float y = frames[i].map(vertices[i].offset)[axis];
-                        lo = std::min(lo, y);
-                        hi = std::max(hi, y);
+                        lo = std::min(lo, y[i][axis]);
+                        hi = std::max(hi, y[i][axis]);
                     }
                     if (lo > reach || hi < -reach) {
                         return;

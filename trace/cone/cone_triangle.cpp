@@ -158,12 +158,6 @@ Vec2d closest_to_origin(const Vec2d& a, const Vec2d& b, const Vec2d& c) {
 
 }  // namespace
 
-float triangle_clip_radius(TriangleWeight weight) {
-    // exp(−(d − ½)²) = 2 % at d = ½ + √ln 50; the Gaussian exp(−d²) at d = √ln 50.
-    return weight == TriangleWeight::Paper ? 0.5f + std::sqrt(kPointWeightClipExponent)
-                                           : std::sqrt(kPointWeightClipExponent);
-}
-
 GaussianFrame GaussianFrame::of(const Mat2f& footprint) {
     GaussianFrame frame;
     if (!footprint.allFinite()) {
@@ -183,16 +177,6 @@ GaussianFrame GaussianFrame::of_ellipse(const SymmetricEigen2& e) {
     frame.axis = e.major_axis;
     frame.inverse_semi_axes = {1.0f / std::sqrt(e.major), 1.0f / std::sqrt(minor)};
     return frame;
-}
-
-Vec2f GaussianFrame::map(const Vec2f& offset) const {
-    // (F·Fᵀ)^(−1/2)·x = U·Λ^(−1/2)·Uᵀ·x: scaled along the ellipse's axes and rotated back, so
-    // the map is the same for every decomposition of the same F and changes continuously with
-    // F. Frames at different depths (per vertex) then agree on the plane's orientation even
-    // where an almost round footprint's axes turn by 90° from one depth to the next.
-    const Vec2f minor_axis(-axis.y(), axis.x());
-    return offset.dot(axis) * inverse_semi_axes.x() * axis +
-           offset.dot(minor_axis) * inverse_semi_axes.y() * minor_axis;
 }
 
 float gaussian_triangle_mass(const Vec2f& a, const Vec2f& b, const Vec2f& c) {

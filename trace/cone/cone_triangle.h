@@ -27,12 +27,14 @@
 // depths, or three copies of one (the paper's faster version: one decomposition per box).
 
 #include "common/footprint/footprint.h"
+#include "common/footprint/point_weight.h"
 #include "common/math/math.h"
 #include "common/system/enum_names.h"
 #include "trace/cone/cone_ray.h"
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <iosfwd>
 #include <optional>
 
@@ -56,7 +58,17 @@ struct GaussianFrame {
     static GaussianFrame of(const Mat2f& footprint);
     /// The same from the footprint's ellipse (FootprintCone::ellipse_of), already known.
     static GaussianFrame of_ellipse(const SymmetricEigen2& ellipse);
-    Vec2f map(const Vec2f& offset) const;
+    /// An offset in the ray's u/v plane in the Gaussian's units. Inline: the triangle loop maps
+    /// each vertex it tests (millions per image), and a call costs as much as the map.
+    Vec2f map(const Vec2f& offset) const {
+        // (F·Fᵀ)^(−1/2)·x = U·Λ^(−1/2)·Uᵀ·x: scaled along the ellipse's axes and rotated back,
+        // so the map is the same for every decomposition of the same F and changes continuously
+        // with F. Frames at different depths (per vertex) then agree on the plane's orientation
+        // even where an almost round footprint's axes turn by 90° from one depth to the next.
+        const Vec2f minor_axis(-axis.y(), axis.x());
+        return offset.dot(axis) * inverse_semi_axes.x() * axis +
+               offset.dot(minor_axis) * inverse_semi_axes.y() * minor_axis;
+    }
 };
 
 struct ConeTriangleHit {
@@ -70,7 +82,12 @@ struct ConeTriangleHit {
 
 /// How far from the axis, in the Gaussian's units, a triangle's closest point may lie and still
 /// be weighed: where the Gaussian (Coverage) or the paper's weight falls below the 2 % clip.
-float triangle_clip_radius(TriangleWeight weight);
+/// Inline, so that it folds to a constant in the triangle loop.
+inline float triangle_clip_radius(TriangleWeight weight) {
+    // exp(−(d − ½)²) = 2 % at d = ½ + √ln 50; the Gaussian exp(−d²) at d = √ln 50.
+    return weight == TriangleWeight::Paper ? 0.5f + std::sqrt(kPointWeightClipExponent)
+                                           : std::sqrt(kPointWeightClipExponent);
+}
 
 /// Whether the triangle with vertices `y` (in the Gaussian's units) lies wholly beyond the
 /// square |y_x|, |y_y| ≤ reach around the origin on one side: then it cannot come within
