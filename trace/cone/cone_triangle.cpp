@@ -166,6 +166,20 @@ GaussianFrame GaussianFrame::of(const Mat2f& footprint) {
     return of_ellipse(FootprintCone::ellipse_of(footprint));
 }
 
+GaussianFrame GaussianFrame::of_clamped(const Mat2f& footprint, float max_anisotropy) {
+    SymmetricEigen2 ellipse = FootprintCone::ellipse_of(footprint);
+    const float minor = ellipse.minor;
+    const Mat2f clamped = FootprintCone::clamp_decomposed(footprint, max_anisotropy, ellipse);
+    // clamp_decomposed raises the minor axis where it clamps (and where it is NaN, which no
+    // comparison equals) and returns the footprint itself, and its ellipse, where it does not.
+    // There of() would decompose the same matrix again: a non-finite F has a non-finite F·Fᵀ,
+    // whose ellipse is the zero one of_ellipse maps to the same empty frame as of()'s own test.
+    if (ellipse.minor == minor) {
+        return of_ellipse(ellipse);
+    }
+    return of(clamped);
+}
+
 GaussianFrame GaussianFrame::of_ellipse(const SymmetricEigen2& e) {
     GaussianFrame frame;
     if (!(e.major > 0.0f) || !std::isfinite(e.major)) {
@@ -224,9 +238,18 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
     std::array<Vec2f, 3> y;
     for (std::size_t i = 0; i < 3; ++i) {
         y[i] = frames[i].map(vertices[i].offset);
-        if (!y[i].allFinite()) {
-            return std::nullopt;
-        }
+    }
+    return intersect_cone_triangle_mapped(vertices, y, weight, t_min);
+}
+
+std::optional<ConeTriangleHit> intersect_cone_triangle_mapped(
+    const std::array<VertexInRayFrame, 3>& vertices, const std::array<Vec2f, 3>& y,
+    TriangleWeight weight, float t_min) {
+    if (std::max({vertices[0].t, vertices[1].t, vertices[2].t}) < t_min) {
+        return std::nullopt;
+    }
+    if (!y[0].allFinite() || !y[1].allFinite() || !y[2].allFinite()) {
+        return std::nullopt;
     }
     // A triangle whose bounding box misses the square around the clip circle weighs nothing
     // (below), and most triangles a node keeps are far from the cone: this saves the exact
