@@ -585,7 +585,6 @@ class Walk {
         if (node.triangle_count == 0 || !(weight > 0.0f)) {
             return;
         }
-        GaussianFrame frame = GaussianFrame::of_ellipse(l.ellipse);
         const float radius = std::sqrt(l.ellipse.major);
         // One frame for the node only where the footprint hardly changes across it: a large
         // node near a cone's apex (a floor's triangles kept high in the tree, seen by a cone
@@ -594,6 +593,9 @@ class Walk {
         const float growth = cone.incr_dev.norm() + (cone.blurred ? cone.blur_incr.norm() : 0.0f);
         const bool varies =
             !(2.0f * l.sphere.radius * growth <= kNodeFootprintVariation * l.footprint.norm());
+        // The node's one frame, or where the footprint varies across the node one per cluster
+        // (below).
+        GaussianFrame frame = varies ? GaussianFrame{} : GaussianFrame::of_ellipse(l.ellipse);
         const bool per_vertex = !m_options.node_frames;
         // Where the weight can reach, in Gaussian units (cone_triangle.cpp's box test) times
         // the footprint's largest semi-axis; with per-vertex frames the largest over the
