@@ -350,8 +350,7 @@ class Walk {
         if (entry.vertex != vertex || entry.space != space.id) {
             entry.vertex = vertex;
             entry.space = space.id;
-            entry.frame = GaussianFrame::of(
-                FootprintCone::clamp_anisotropy(space.ray.cone.at(t), m_options.max_anisotropy));
+            entry.frame = GaussianFrame::of_clamped(space.ray.cone.at(t), m_options.max_anisotropy);
         }
         return entry.frame;
     }
@@ -603,8 +602,6 @@ class Walk {
         if (node.triangle_count == 0 || !(weight > 0.0f)) {
             return;
         }
-        const GaussianFrame node_frame = GaussianFrame::of_ellipse(l.ellipse);
-        std::array<GaussianFrame, 3> frames{node_frame, node_frame, node_frame};
         const float radius = std::sqrt(l.ellipse.major);
         // One frame for the node only where the footprint hardly changes across it: a large
         // node near a cone's apex (a floor's triangles kept high in the tree, seen by a cone
@@ -613,6 +610,9 @@ class Walk {
         const float growth = cone.incr_dev.norm() + (cone.blurred ? cone.blur_incr.norm() : 0.0f);
         const bool varies =
             !(2.0f * l.sphere.radius * growth <= kNodeFootprintVariation * l.footprint.norm());
+        // The node's one frame, or where the footprint varies across the node one per cluster
+        // (below).
+        GaussianFrame frame = varies ? GaussianFrame{} : GaussianFrame::of_ellipse(l.ellipse);
         const bool per_vertex = !m_options.node_frames;
         // Where the weight can reach, in Gaussian units (cone_triangle.cpp's box test) times
         // the footprint's largest semi-axis; with per-vertex frames the largest over the
@@ -640,8 +640,7 @@ class Walk {
                 SymmetricEigen2 ellipse;
                 FootprintCone::clamp_anisotropy(cone.at(std::clamp(centre.t, l.t_min, l.t_max)),
                                                 m_options.max_anisotropy, ellipse);
-                const GaussianFrame frame = GaussianFrame::of_ellipse(ellipse);
-                frames = {frame, frame, frame};
+                frame = GaussianFrame::of_ellipse(ellipse);
                 cluster_radius = std::sqrt(ellipse.major);
             }
             // The circle around the cull's ellipse (of the frame the triangle loop culls with).
@@ -652,55 +651,59 @@ class Walk {
                  near != 0; near &= near - 1) {
                 const std::uint32_t j =
                     cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));
-                triangle(space, m_geometry.triangle_order(j), l, per_vertex, frames, cluster_radius,
+                triangle(space, m_geometry.triangle_order(j), l, per_vertex, frame, cluster_radius,
                          weight);
             }
         }
     }
 
     void triangle(const ConeSpace& space, std::uint32_t triangle, const Look& l, bool per_vertex,
-                  const std::array<GaussianFrame, 3>& frames, float radius, float weight) {
+                  const GaussianFrame& frame, float radius, float weight) {
         {
             ++m_stats.triangles_tested;
             const auto& tri = m_view.triangles[triangle];
-            std::array<Vec3f, 3> p;
-            std::array<VertexInRayFrame, 3> vertices;
-            for (std::size_t i = 0; i < 3; ++i) {
-                p[i] = to_vec(m_view.vertex_positions[tri[i]]);
-                vertices[i] = space.ray.frame_of(p[i]);
-            }
-            if (std::max({vertices[0].t, vertices[1].t, vertices[2].t}) < l.t_min ||
-                std::min({vertices[0].t, vertices[1].t, vertices[2].t}) > l.t_max) {
+            const std::array<Vec3f, 3> p{to_vec(m_view.vertex_positions[tri[0]]),
+                                         to_vec(m_view.vertex_positions[tri[1]]),
+                                         to_vec(m_view.vertex_positions[tri[2]])};
+            const TriangleInRayFrame in_ray(space.ray, p);
+            if (std::max({in_ray.t[0], in_ray.t[1], in_ray.t[2]}) < l.t_min ||
+                std::min({in_ray.t[0], in_ray.t[1], in_ray.t[2]}) > l.t_max) {
                 return;
             }
-            const Vec3f winding = (p[1] - p[0]).cross(p[2] - p[0]);
+            // The winding is formed only where it is read: by a closed surface's back-face test
+            // and for what passes the cull (a third of the triangles tested do not).
+            const auto winding_of = [&p] { return Vec3f((p[1] - p[0]).cross(p[2] - p[0])); };
             if (m_options.cull_closed_back_faces) {
                 const ClosedSurface* closed = m_geometry.closed_surfaces().of_triangle(triangle);
                 if (closed != nullptr && closed->seen_from_outside(space.ray.origin, space.start) &&
-                    closed->back_facing(p[0], winding, space.ray.origin, space.start)) {
+                    closed->back_facing(p[0], winding_of(), space.ray.origin, space.start)) {
                     ++m_stats.back_faces_culled;
                     return;
                 }
             }
+            // The vertices in the cull's frames: culled with them, and weighed with them
+            // where the vertices' own frames are not used.
+            const TriangleInRayFrame::Mapped mapped = in_ray.map(frame);
             if (per_vertex) {
                 // Culled with the node's (or cluster's) one frame, a margin wider than the
                 // footprint changes across the node; weighed with each vertex's own, so that
                 // the triangles around a shared edge weigh exactly 1 together wherever they
                 // are kept.
                 const float reach = kCullMargin * triangle_clip_radius(m_options.triangle_weight);
-                for (int axis = 0; axis < 2; ++axis) {
+                for (const Eigen::Array4f* y : {&mapped.x, &mapped.y}) {
                     float lo = std::numeric_limits<float>::infinity();
                     float hi = -lo;
-                    for (std::size_t i = 0; i < 3; ++i) {
-                        const float y = frames[i].map(vertices[i].offset)[axis];
-                        lo = std::min(lo, y);
-                        hi = std::max(hi, y);
+                    for (Eigen::Index i = 0; i < 3; ++i) {
+                        lo = std::min(lo, (*y)[i]);
+                        hi = std::max(hi, (*y)[i]);
                     }
                     if (lo > reach || hi < -reach) {
                         return;
                     }
                 }
             }
+            const std::array<VertexInRayFrame, 3> vertices = in_ray.vertices();
+            const Vec3f winding = winding_of();
             if (l.t_min > 0.0f || space.start == 0.0f) {
                 // A cone leaving a surface starts on it: the flat surface it leaves (every
                 // triangle of a floor, coplanar with the apex) cannot be met again, whatever
@@ -737,7 +740,10 @@ class Walk {
                     exact[i] = vertex_frame(space, tri[i], vertices[i].t);
                 }
             }
-            const auto hit = intersect_cone_triangle(vertices, per_vertex ? exact : frames,
+            const auto hit =
+                per_vertex
+                    ? intersect_cone_triangle(vertices, exact, m_options.triangle_weight, l.t_min)
+                    : intersect_cone_triangle_mapped(vertices, mapped.points(),
                                                      m_options.triangle_weight, l.t_min);
             if (!hit || hit->t < l.t_min || hit->t > l.t_max) {
                 return;

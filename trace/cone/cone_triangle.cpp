@@ -158,18 +158,26 @@ Vec2d closest_to_origin(const Vec2d& a, const Vec2d& b, const Vec2d& c) {
 
 }  // namespace
 
-float triangle_clip_radius(TriangleWeight weight) {
-    // exp(−(d − ½)²) = 2 % at d = ½ + √ln 50; the Gaussian exp(−d²) at d = √ln 50.
-    return weight == TriangleWeight::Paper ? 0.5f + std::sqrt(kPointWeightClipExponent)
-                                           : std::sqrt(kPointWeightClipExponent);
-}
-
 GaussianFrame GaussianFrame::of(const Mat2f& footprint) {
     GaussianFrame frame;
     if (!footprint.allFinite()) {
         return frame;
     }
     return of_ellipse(FootprintCone::ellipse_of(footprint));
+}
+
+GaussianFrame GaussianFrame::of_clamped(const Mat2f& footprint, float max_anisotropy) {
+    SymmetricEigen2 ellipse = FootprintCone::ellipse_of(footprint);
+    const float minor = ellipse.minor;
+    const Mat2f clamped = FootprintCone::clamp_decomposed(footprint, max_anisotropy, ellipse);
+    // clamp_decomposed raises the minor axis where it clamps (and where it is NaN, which no
+    // comparison equals) and returns the footprint itself, and its ellipse, where it does not.
+    // There of() would decompose the same matrix again: a non-finite F has a non-finite F·Fᵀ,
+    // whose ellipse is the zero one of_ellipse maps to the same empty frame as of()'s own test.
+    if (ellipse.minor == minor) {
+        return of_ellipse(ellipse);
+    }
+    return of(clamped);
 }
 
 GaussianFrame GaussianFrame::of_ellipse(const SymmetricEigen2& e) {
@@ -183,16 +191,6 @@ GaussianFrame GaussianFrame::of_ellipse(const SymmetricEigen2& e) {
     frame.axis = e.major_axis;
     frame.inverse_semi_axes = {1.0f / std::sqrt(e.major), 1.0f / std::sqrt(minor)};
     return frame;
-}
-
-Vec2f GaussianFrame::map(const Vec2f& offset) const {
-    // (F·Fᵀ)^(−1/2)·x = U·Λ^(−1/2)·Uᵀ·x: scaled along the ellipse's axes and rotated back, so
-    // the map is the same for every decomposition of the same F and changes continuously with
-    // F. Frames at different depths (per vertex) then agree on the plane's orientation even
-    // where an almost round footprint's axes turn by 90° from one depth to the next.
-    const Vec2f minor_axis(-axis.y(), axis.x());
-    return offset.dot(axis) * inverse_semi_axes.x() * axis +
-           offset.dot(minor_axis) * inverse_semi_axes.y() * minor_axis;
 }
 
 float gaussian_triangle_mass(const Vec2f& a, const Vec2f& b, const Vec2f& c) {
@@ -240,9 +238,18 @@ std::optional<ConeTriangleHit> intersect_cone_triangle(
     std::array<Vec2f, 3> y;
     for (std::size_t i = 0; i < 3; ++i) {
         y[i] = frames[i].map(vertices[i].offset);
-        if (!y[i].allFinite()) {
-            return std::nullopt;
-        }
+    }
+    return intersect_cone_triangle_mapped(vertices, y, weight, t_min);
+}
+
+std::optional<ConeTriangleHit> intersect_cone_triangle_mapped(
+    const std::array<VertexInRayFrame, 3>& vertices, const std::array<Vec2f, 3>& y,
+    TriangleWeight weight, float t_min) {
+    if (std::max({vertices[0].t, vertices[1].t, vertices[2].t}) < t_min) {
+        return std::nullopt;
+    }
+    if (!y[0].allFinite() || !y[1].allFinite() || !y[2].allFinite()) {
+        return std::nullopt;
     }
     // A triangle whose bounding box misses the square around the clip circle weighs nothing
     // (below), and most triangles a node keeps are far from the cone: this saves the exact

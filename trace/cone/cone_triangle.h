@@ -27,12 +27,14 @@
 // depths, or three copies of one (the paper's faster version: one decomposition per box).
 
 #include "common/footprint/footprint.h"
+#include "common/footprint/point_weight.h"
 #include "common/math/math.h"
 #include "common/system/enum_names.h"
 #include "trace/cone/cone_ray.h"
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <iosfwd>
 #include <optional>
 
@@ -56,7 +58,22 @@ struct GaussianFrame {
     static GaussianFrame of(const Mat2f& footprint);
     /// The same from the footprint's ellipse (FootprintCone::ellipse_of), already known.
     static GaussianFrame of_ellipse(const SymmetricEigen2& ellipse);
-    Vec2f map(const Vec2f& offset) const;
+    /// of(FootprintCone::clamp_anisotropy(footprint, max_anisotropy)), the same bit for bit,
+    /// from one decomposition where the clamp leaves the footprint as it is (the clamp's own
+    /// decomposition is then the frame's) instead of two: the per-vertex frames of the triangle
+    /// loop.
+    static GaussianFrame of_clamped(const Mat2f& footprint, float max_anisotropy);
+    /// An offset in the ray's u/v plane in the Gaussian's units. Inline: the triangle loop maps
+    /// each vertex it tests (millions per image), and a call costs as much as the map.
+    Vec2f map(const Vec2f& offset) const {
+        // (F·Fᵀ)^(−1/2)·x = U·Λ^(−1/2)·Uᵀ·x: scaled along the ellipse's axes and rotated back,
+        // so the map is the same for every decomposition of the same F and changes continuously
+        // with F. Frames at different depths (per vertex) then agree on the plane's orientation
+        // even where an almost round footprint's axes turn by 90° from one depth to the next.
+        const Vec2f minor_axis(-axis.y(), axis.x());
+        return offset.dot(axis) * inverse_semi_axes.x() * axis +
+               offset.dot(minor_axis) * inverse_semi_axes.y() * minor_axis;
+    }
 };
 
 struct ConeTriangleHit {
@@ -68,9 +85,58 @@ struct ConeTriangleHit {
     float b2 = 0.0f;
 };
 
+/// A triangle's vertices in a cone's ray coordinates, one vertex per lane (the fourth lane is
+/// zero), and their offsets in a Gaussian frame's units: the triangle loop's cheap rejections
+/// for all three vertices at once in SIMD registers, every lane bit for bit what
+/// ConeRay::frame_of and GaussianFrame::map give (the same operations in the same order; Eigen
+/// sums a 3-vector's dot product as x + (y + z)). Every triangle a cone's clusters let through
+/// is projected (millions per image), and Eigen's 3-vectors are not vectorised.
+struct TriangleInRayFrame {
+    Eigen::Array4f t;  ///< Depths along the ray's direction.
+    Eigen::Array4f u;  ///< Offsets along the cone's u.
+    Eigen::Array4f v;  ///< Offsets along the cone's v.
+
+    TriangleInRayFrame(const ConeRay& ray, const std::array<Vec3f, 3>& p) {
+        const Vec3f& o = ray.origin;
+        const Eigen::Array4f dx(p[0].x() - o.x(), p[1].x() - o.x(), p[2].x() - o.x(), 0.0f);
+        const Eigen::Array4f dy(p[0].y() - o.y(), p[1].y() - o.y(), p[2].y() - o.y(), 0.0f);
+        const Eigen::Array4f dz(p[0].z() - o.z(), p[1].z() - o.z(), p[2].z() - o.z(), 0.0f);
+        const auto dot = [&](const Vec3f& axis) -> Eigen::Array4f {
+            return dx * axis.x() + (dy * axis.y() + dz * axis.z());
+        };
+        t = dot(ray.direction);
+        u = dot(ray.cone.u);
+        v = dot(ray.cone.v);
+    }
+
+    VertexInRayFrame vertex(Eigen::Index i) const { return {t[i], Vec2f(u[i], v[i])}; }
+    std::array<VertexInRayFrame, 3> vertices() const { return {vertex(0), vertex(1), vertex(2)}; }
+
+    /// The offsets in `frame`'s units (GaussianFrame::map of each): x and y, one vertex a lane.
+    struct Mapped {
+        Eigen::Array4f x;
+        Eigen::Array4f y;
+        std::array<Vec2f, 3> points() const {
+            return {Vec2f(x[0], y[0]), Vec2f(x[1], y[1]), Vec2f(x[2], y[2])};
+        }
+    };
+    Mapped map(const GaussianFrame& frame) const {
+        // GaussianFrame::map's operations in its order; the minor axis is (−a_y, a_x).
+        const float ax = frame.axis.x(), ay = frame.axis.y();
+        const Eigen::Array4f along = (u * ax + v * ay) * frame.inverse_semi_axes.x();
+        const Eigen::Array4f across = (u * -ay + v * ax) * frame.inverse_semi_axes.y();
+        return {along * ax + across * -ay, along * ay + across * ax};
+    }
+};
+
 /// How far from the axis, in the Gaussian's units, a triangle's closest point may lie and still
 /// be weighed: where the Gaussian (Coverage) or the paper's weight falls below the 2 % clip.
-float triangle_clip_radius(TriangleWeight weight);
+/// Inline, so that it folds to a constant in the triangle loop.
+inline float triangle_clip_radius(TriangleWeight weight) {
+    // exp(−(d − ½)²) = 2 % at d = ½ + √ln 50; the Gaussian exp(−d²) at d = √ln 50.
+    return weight == TriangleWeight::Paper ? 0.5f + std::sqrt(kPointWeightClipExponent)
+                                           : std::sqrt(kPointWeightClipExponent);
+}
 
 /// Whether the triangle with vertices `y` (in the Gaussian's units) lies wholly beyond the
 /// square |y_x|, |y_y| ≤ reach around the origin on one side: then it cannot come within
@@ -93,6 +159,12 @@ inline bool misses_square(const std::array<Vec2f, 3>& y, float reach) {
 /// the vertices (PerVertex) or three copies of one (PerNode).
 std::optional<ConeTriangleHit> intersect_cone_triangle(
     const std::array<VertexInRayFrame, 3>& vertices, const std::array<GaussianFrame, 3>& frames,
+    TriangleWeight weight, float t_min);
+/// The same with the vertices already in the Gaussian's units, `y[i]` = frames[i].map(vertices[i]
+/// .offset): the tracer's triangle loop maps them for its cull, and where it weighs with the
+/// cull's frames it does not map them again.
+std::optional<ConeTriangleHit> intersect_cone_triangle_mapped(
+    const std::array<VertexInRayFrame, 3>& vertices, const std::array<Vec2f, 3>& y,
     TriangleWeight weight, float t_min);
 
 /// The Gaussian mass exp(−|y|²)/π over the 2D triangle (a, b, c), in [0, 1]: the `Coverage`

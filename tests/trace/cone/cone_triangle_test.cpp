@@ -9,8 +9,12 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <random>
+#include <vector>
 
 namespace mrt {
 namespace {
@@ -227,6 +231,131 @@ TEST(ConeTriangle, NearlyCollinearFootprintsStayFiniteAndPerVertexFramesFollowDe
     const auto exact = intersect_cone_triangle(tilted, per_vertex, TriangleWeight::Coverage, 0.0f);
     ASSERT_TRUE(exact);
     EXPECT_GT(exact->weight, per_node ? per_node->weight : 0.0f);
+}
+
+/// The bits of a frame's four floats, so that frames compare bit for bit (NaN included).
+std::array<std::uint32_t, 4> bits_of(const GaussianFrame& frame) {
+    return {std::bit_cast<std::uint32_t>(frame.axis.x()),
+            std::bit_cast<std::uint32_t>(frame.axis.y()),
+            std::bit_cast<std::uint32_t>(frame.inverse_semi_axes.x()),
+            std::bit_cast<std::uint32_t>(frame.inverse_semi_axes.y())};
+}
+
+TEST(GaussianFrame, OfClampedIsTheFrameOfTheClampedFootprintBitForBit) {
+    // The reference is the two-step path the tracer took before: clamp, then decompose the
+    // clamped footprint again. Random footprints over twelve decades of scale, half of them
+    // nearly collinear (clamped), and damaged ones.
+    std::mt19937_64 rng(17);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    const float inf = std::numeric_limits<float>::infinity();
+    std::vector<Mat2f> footprints{Mat2f::Zero(), Mat2f::Identity()};
+    Mat2f damaged;
+    damaged << std::nanf(""), 0.0f, 0.0f, 1.0f;
+    footprints.push_back(damaged);
+    damaged << 1.0f, inf, 0.0f, 1.0f;
+    footprints.push_back(damaged);
+    damaged << 1e30f, 0.0f, 0.0f, 1.0f;  // F·Fᵀ overflows
+    footprints.push_back(damaged);
+    for (int n = 0; n < 2000; ++n) {
+        Mat2f f;
+        f << unit(rng), unit(rng), unit(rng), unit(rng);
+        if (n % 2 == 1) {
+            f.col(1) = f.col(0) * (1.0f + 0.3f * unit(rng)) + 1e-3f * Vec2f(unit(rng), unit(rng));
+        }
+        footprints.push_back(std::pow(10.0f, 6.0f * unit(rng)) * f);
+    }
+    int clamped = 0;
+    for (const Mat2f& f : footprints) {
+        for (const float anisotropy : {1.0f, 8.0f, 1e3f}) {
+            const Mat2f c = FootprintCone::clamp_anisotropy(f, anisotropy);
+            clamped += c != f ? 1 : 0;
+            EXPECT_EQ(bits_of(GaussianFrame::of_clamped(f, anisotropy)),
+                      bits_of(GaussianFrame::of(c)))
+                << f << "\nanisotropy " << anisotropy;
+        }
+    }
+    // Both of of_clamped's ways were taken, many times.
+    EXPECT_GT(clamped, 1000);
+    EXPECT_LT(clamped, 5000);
+}
+
+TEST(ConeTriangle, MappedVerticesWeighAsTheirFramesDo) {
+    // Known answers through the mapped entry: an edge through the axis holds half the mass; a
+    // non-finite mapped vertex or a triangle behind t_min is not hit.
+    const auto edge = triangle_at(5.0f, {0, -1}, {1, 0}, {0, 1});
+    const std::array<Vec2f, 3> y{Vec2f(0, -100), Vec2f(100, 0), Vec2f(0, 100)};
+    const auto hit = intersect_cone_triangle_mapped(edge, y, TriangleWeight::Coverage, 0.0f);
+    ASSERT_TRUE(hit);
+    EXPECT_NEAR(hit->weight, 0.5f / (1.0f - kPointWeightClip), 1e-4f);
+    EXPECT_FLOAT_EQ(hit->t, 5.0f);
+    EXPECT_FALSE(intersect_cone_triangle_mapped(edge, y, TriangleWeight::Coverage, 6.0f));
+    std::array<Vec2f, 3> damaged = y;
+    damaged[1].x() = std::nanf("");
+    EXPECT_FALSE(intersect_cone_triangle_mapped(edge, damaged, TriangleWeight::Coverage, 0.0f));
+    // And the same hit as from the frames themselves, on random triangles and footprints.
+    std::mt19937_64 rng(23);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    int hits = 0;
+    for (int n = 0; n < 500; ++n) {
+        std::array<VertexInRayFrame, 3> vertices;
+        std::array<GaussianFrame, 3> frames;
+        std::array<Vec2f, 3> mapped;
+        for (std::size_t i = 0; i < 3; ++i) {
+            vertices[i] = {1.0f + unit(rng), Vec2f(unit(rng), unit(rng))};
+            Mat2f f;
+            f << unit(rng), unit(rng), unit(rng), unit(rng);
+            frames[i] = GaussianFrame::of_clamped(f, 8.0f);
+            mapped[i] = frames[i].map(vertices[i].offset);
+        }
+        for (const TriangleWeight weight : {TriangleWeight::Coverage, TriangleWeight::Paper}) {
+            const auto a = intersect_cone_triangle(vertices, frames, weight, 0.5f);
+            const auto b = intersect_cone_triangle_mapped(vertices, mapped, weight, 0.5f);
+            ASSERT_EQ(a.has_value(), b.has_value()) << n;
+            if (a) {
+                ++hits;
+                EXPECT_EQ(a->t, b->t);
+                EXPECT_EQ(a->weight, b->weight);
+                EXPECT_EQ(a->b1, b->b1);
+                EXPECT_EQ(a->b2, b->b2);
+            }
+        }
+    }
+    EXPECT_GT(hits, 100);
+}
+
+TEST(TriangleInRayFrame, LanesAreFrameOfAndMapBitForBit) {
+    // The references: ConeRay::frame_of and GaussianFrame::map, one vertex at a time. Rays far
+    // from the origin and vertices far from the ray, so that the order of the sums shows.
+    std::mt19937_64 rng(29);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    const auto bits = [](float x) { return std::bit_cast<std::uint32_t>(x); };
+    for (int n = 0; n < 2000; ++n) {
+        const float scale = std::pow(10.0f, 4.0f * unit(rng));
+        ConeRay ray;
+        ray.origin = scale * Vec3f(unit(rng), unit(rng), unit(rng));
+        ray.direction = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
+        orthonormal_basis(ray.direction, ray.cone.u, ray.cone.v);
+        std::array<Vec3f, 3> p;
+        for (Vec3f& q : p) {
+            q = ray.origin + scale * Vec3f(unit(rng), unit(rng), unit(rng));
+        }
+        Mat2f f;
+        f << unit(rng), unit(rng), unit(rng), unit(rng);
+        const GaussianFrame frame = GaussianFrame::of_clamped(scale * f, 8.0f);
+        const TriangleInRayFrame lanes(ray, p);
+        const TriangleInRayFrame::Mapped mapped = lanes.map(frame);
+        const std::array<VertexInRayFrame, 3> vertices = lanes.vertices();
+        const std::array<Vec2f, 3> points = mapped.points();
+        for (std::size_t i = 0; i < 3; ++i) {
+            const VertexInRayFrame expected = ray.frame_of(p[i]);
+            ASSERT_EQ(bits(vertices[i].t), bits(expected.t)) << n << " " << i;
+            ASSERT_EQ(bits(vertices[i].offset.x()), bits(expected.offset.x())) << n << " " << i;
+            ASSERT_EQ(bits(vertices[i].offset.y()), bits(expected.offset.y())) << n << " " << i;
+            const Vec2f y = frame.map(expected.offset);
+            ASSERT_EQ(bits(points[i].x()), bits(y.x())) << n << " " << i;
+            ASSERT_EQ(bits(points[i].y()), bits(y.y())) << n << " " << i;
+        }
+    }
 }
 
 }  // namespace
