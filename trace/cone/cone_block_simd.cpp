@@ -51,24 +51,29 @@ std::uint32_t bits_below(std::uint32_t count) {
     return (1u << count) - 1u;
 }
 
+/// A ray's origin, direction and footprint axes u, v, each coordinate in every lane: what
+/// placing a vector of sphere centres in the ray's frame needs.
+template <class D>
+struct RayLanes {
+    std::array<hn::Vec<D>, 12> lanes;
+
+    RayLanes(D d, const ConeRay& ray)
+        : lanes{hn::Set(d, ray.origin.x()),    hn::Set(d, ray.origin.y()),
+                hn::Set(d, ray.origin.z()),    hn::Set(d, ray.direction.x()),
+                hn::Set(d, ray.direction.y()), hn::Set(d, ray.direction.z()),
+                hn::Set(d, ray.cone.u.x()),    hn::Set(d, ray.cone.u.y()),
+                hn::Set(d, ray.cone.u.z()),    hn::Set(d, ray.cone.v.x()),
+                hn::Set(d, ray.cone.v.y()),    hn::Set(d, ray.cone.v.z())} {}
+};
+
 /// spheres_near_axis_scalar, a vector of spheres at a time.
 std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t count,
                                      const ConeRay& ray, float reach, float t_min, float t_max) {
     const hn::CappedTag<float, kConeClusterSize> d;
     const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
     const std::uint32_t used = std::min(count, kConeClusterSize);
-    const auto ox = hn::Set(d, ray.origin.x());
-    const auto oy = hn::Set(d, ray.origin.y());
-    const auto oz = hn::Set(d, ray.origin.z());
-    const auto dx = hn::Set(d, ray.direction.x());
-    const auto dy = hn::Set(d, ray.direction.y());
-    const auto dz = hn::Set(d, ray.direction.z());
-    const auto ux = hn::Set(d, ray.cone.u.x());
-    const auto uy = hn::Set(d, ray.cone.u.y());
-    const auto uz = hn::Set(d, ray.cone.u.z());
-    const auto vx = hn::Set(d, ray.cone.v.x());
-    const auto vy = hn::Set(d, ray.cone.v.y());
-    const auto vz = hn::Set(d, ray.cone.v.z());
+    const RayLanes<decltype(d)> ray_lanes(d, ray);
+    const auto& [ox, oy, oz, dx, dy, dz, ux, uy, uz, vx, vy, vz] = ray_lanes.lanes;
     const auto reach_v = hn::Set(d, reach);
     const auto t_min_v = hn::Set(d, t_min);
     const auto t_max_v = hn::Set(d, t_max);
@@ -154,18 +159,8 @@ std::uint32_t children_near_cone_simd(const ConeChildBlock& block, std::uint32_t
     const hn::CappedTag<float, kConeChildCount> d;
     const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
     const ConeSphereTest::CircleCoefficients circle = test.circle();
-    const auto ox = hn::Set(d, ray.origin.x());
-    const auto oy = hn::Set(d, ray.origin.y());
-    const auto oz = hn::Set(d, ray.origin.z());
-    const auto dx = hn::Set(d, ray.direction.x());
-    const auto dy = hn::Set(d, ray.direction.y());
-    const auto dz = hn::Set(d, ray.direction.z());
-    const auto ux = hn::Set(d, ray.cone.u.x());
-    const auto uy = hn::Set(d, ray.cone.u.y());
-    const auto uz = hn::Set(d, ray.cone.u.z());
-    const auto vx = hn::Set(d, ray.cone.v.x());
-    const auto vy = hn::Set(d, ray.cone.v.y());
-    const auto vz = hn::Set(d, ray.cone.v.z());
+    const RayLanes<decltype(d)> ray_lanes(d, ray);
+    const auto& [ox, oy, oz, dx, dy, dz, ux, uy, uz, vx, vy, vz] = ray_lanes.lanes;
     const auto t_min_v = hn::Set(d, t_min);
     const auto t_max_v = hn::Set(d, t_max);
     const auto anisotropy_widening = hn::Set(d, 1.0f + circle.inverse_anisotropy_squared);
