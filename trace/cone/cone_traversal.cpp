@@ -206,6 +206,15 @@ class Walk {
     /// children are tested together, in one block (children_near_cone), before they are visited.
     enum class Circle : std::uint8_t { Untested, Passed };
 
+    /// Early termination: whether the sphere lies wholly behind what is already opaque (counted).
+    bool behind_opaque(const ConeSpace& space, const SphereInRayFrame& sphere) {
+        if ((sphere.t - sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
+            ++m_stats.culled_by_opacity;
+            return true;
+        }
+        return false;
+    }
+
     /// Steps 1 and the early termination: false when the cone cannot reach the node.
     bool look(const ConeSpace& space, const HierarchyNode& node, Circle circle, Look& look) {
         if (m_stop != nullptr && m_stop->load(std::memory_order_relaxed)) {
@@ -222,8 +231,7 @@ class Walk {
                 return false;
             }
         }
-        if ((look.sphere.t - look.sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
-            ++m_stats.culled_by_opacity;
+        if (behind_opaque(space, look.sphere)) {
             return false;
         }
         // The node's one decomposition (§5.2) gives the sphere test's axes too.
@@ -334,11 +342,7 @@ class Walk {
                        m_t_max / space.world_per_t, sphere)) {
             return false;
         }
-        if ((sphere.t - sphere.radius) * space.world_per_t > m_buffer.opaque_depth()) {
-            ++m_stats.culled_by_opacity;
-            return false;
-        }
-        return true;
+        return !behind_opaque(space, sphere);
     }
 
     /// The Gaussian frame of the (clamped) footprint at a vertex's depth. A vertex is shared by
