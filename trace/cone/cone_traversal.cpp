@@ -4,6 +4,7 @@
 #include "common/footprint/point_weight.h"
 #include "common/math/invertibility.h"
 #include "common/math/quantization.h"
+#include "trace/cone/apex_ellipse.h"
 #include "trace/cone/cone_bounds.h"
 
 #include <algorithm>
@@ -105,6 +106,8 @@ struct ConeSpace {
     float start = 0.0f;        ///< How far from the apex the cone's rays start (start_radius).
     /// The sphere tests' view of `ray.cone`, prepared once per space.
     ConeSphereTest bounds;
+    /// The footprint's decompositions once for the cone where it grows from its apex.
+    ApexEllipse apex;
 
   private:
     void compose() const {
@@ -141,6 +144,8 @@ ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f&
     space.start = start_radius(space.ray.cone);
     space.bounds = similar ? ConeSphereTest(parent.bounds, space.ray.cone, object_scale)
                            : ConeSphereTest(space.ray.cone, max_anisotropy);
+    // A similarity keeps the increments as they are (map_cone_similar), so D's decompositions.
+    space.apex = similar ? parent.apex : ApexEllipse::of(space.ray.cone, max_anisotropy);
     space.world_per_t = parent.world_per_t / mapped.scale;
     space.parent = &parent;
     space.normal_to_parent = &normal_to_group;
@@ -237,7 +242,7 @@ class Walk {
         // The node's one decomposition (§5.2) gives the sphere test's axes too.
         const float t = std::clamp(look.sphere.t, look.t_min, look.t_max);
         const Mat2f footprint = cone.at(t);
-        look.ellipse = FootprintCone::ellipse_of(footprint);
+        look.ellipse = ellipse_at(space, t, footprint);
         if (!space.bounds.rectangle_may_touch(look.sphere, widening, look.t_min, look.t_max,
                                               look.ellipse.major_axis)) {
             return false;
@@ -246,6 +251,12 @@ class Walk {
         look.footprint =
             FootprintCone::clamp_decomposed(footprint, m_options.max_anisotropy, look.ellipse);
         return true;
+    }
+
+    /// FootprintCone::ellipse_of(footprint), the footprint at depth t: from the cone's one
+    /// decomposition where it grows from its apex.
+    static SymmetricEigen2 ellipse_at(const ConeSpace& space, float t, const Mat2f& footprint) {
+        return space.apex.covers(t) ? space.apex.ellipse(t) : FootprintCone::ellipse_of(footprint);
     }
 
     /// How a node's level is chosen.
@@ -349,6 +360,9 @@ class Walk {
     /// about six triangles, which a cone meets together: a small direct-mapped cache keyed by
     /// the vertex and the space saves most of the decompositions.
     GaussianFrame vertex_frame(const ConeSpace& space, std::uint32_t vertex, float t) {
+        if (space.apex.covers(t)) {
+            return space.apex.frame(t);
+        }
         const std::size_t slot = vertex % kFrameCacheSize;
         FrameCacheEntry& entry = m_frame_cache[slot];
         if (entry.vertex != vertex || entry.space != space.id) {
@@ -641,9 +655,10 @@ class Walk {
             if (varies) {
                 // The node's one footprint would be wrong across it: one per cluster instead
                 // (a cluster is a few triangles across).
-                SymmetricEigen2 ellipse;
-                FootprintCone::clamp_anisotropy(cone.at(std::clamp(centre.t, l.t_min, l.t_max)),
-                                                m_options.max_anisotropy, ellipse);
+                const float t = std::clamp(centre.t, l.t_min, l.t_max);
+                const Mat2f footprint = cone.at(t);
+                SymmetricEigen2 ellipse = ellipse_at(space, t, footprint);
+                FootprintCone::clamp_decomposed(footprint, m_options.max_anisotropy, ellipse);
                 frame = GaussianFrame::of_ellipse(ellipse);
                 cluster_radius = std::sqrt(ellipse.major);
             }
@@ -1082,6 +1097,7 @@ void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffe
     world.ray = ray;
     world.start = start_radius(ray.cone);
     world.bounds = ConeSphereTest(ray.cone, m_options.max_anisotropy);
+    world.apex = ApexEllipse::of(ray.cone, m_options.max_anisotropy);
     Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max);
     walk.object(world, m_geometry.view().world_object, 1.0f);
 }
