@@ -52,14 +52,19 @@ ConeClusterPlane cluster_plane(const Vec3f& centre, std::uint32_t first, std::ui
 
 /// Whether every member of a cluster (centre c, bounding radius r) has its tangent plane within
 /// `tolerance` of `apex`: |n_p·(p − a)| ≤ |n_c·(c − a)| + thickness + spread·(|c − a| + r).
-/// Sufficient, not necessary: false says nothing about the members.
+/// Or, the traversal's second clause for the surface a cone leaves (a curved surface's points
+/// around the apex, below the start's resolution): within `start` of the apex while every member
+/// lies within `near` of it, |c − a| + r ≤ near. Sufficient, not necessary: false says nothing
+/// about the members.
 inline bool cluster_leaves(const ConeClusterPlane& plane, const Vec3f& centre, float radius,
-                           const Vec3f& apex, float tolerance) {
+                           const Vec3f& apex, float tolerance, float start = 0.0f,
+                           float near = 0.0f) {
     const Vec3f apart = centre - apex;
     const Vec3f normal(plane.normal[0], plane.normal[1], plane.normal[2]);
+    const float distance = apart.norm();
     const float bound =
-        std::abs(normal.dot(apart)) + plane.thickness + plane.spread * (apart.norm() + radius);
-    return bound <= tolerance;
+        std::abs(normal.dot(apart)) + plane.thickness + plane.spread * (distance + radius);
+    return bound <= tolerance || (bound <= start && distance + radius <= near);
 }
 
 }  // namespace mrt

@@ -50,6 +50,8 @@ constexpr float kNearApex = 10.0f;
 /// A point whose tangent plane passes within this many voxel sides of the apex of a cone that
 /// left a surface stands for that surface.
 constexpr float kCoplanarPoint = 0.1f;
+/// A point's size for the leaving test's distance from the apex, in voxel sides.
+constexpr float kPointSize = 2.0f;
 /// A cone whose direction makes at least this cosine with the inward normal of a closed
 /// surface's primitive enters the solid there (enters_solid).
 constexpr float kEnteringCosine = 0.1f;
@@ -457,12 +459,16 @@ class Walk {
         const float stretch = largest_singular_value(frame.inverse) * (1.0f + kBoundRelativeMargin);
         const float offset_stretch = h * stretch / 127.0f;  // per step of the offset's code
         const VoxelsInRayFrame voxels(space.ray, frame, origin, h, offset_stretch);
-        // The points of the surface a cone leaves (point(): the leaving test), skipped a whole
-        // flat cluster at a time; half the tolerance, so that the points' own test, rounded in
-        // the ray's frame, would have skipped each of them too. Where the cone may enter a solid
-        // through some of them (a shadow cone on a closed surface) they are tested one by one.
+        // The points of the surface a cone leaves (point(): the leaving test, both clauses),
+        // skipped a whole flat cluster at a time, or a cluster around the apex; half the
+        // tolerance and the start, and the near distance short by a per cent, so that the points'
+        // own test, rounded in the ray's frame, would have skipped each of them too. Where the
+        // cone may enter a solid through some of them (a shadow cone on a closed surface) they
+        // are tested one by one.
         const bool skips_leaving = l.t_min > 0.0f && (kShade || solid == nullptr);
         const float leaving = 0.5f * kCoplanarPoint * h;
+        const float leaving_start = 0.5f * space.start;
+        const float leaving_near = 0.99f * (kPointSize * h + kNearApex * space.start);
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
@@ -477,7 +483,8 @@ class Walk {
             }
             if (skips_leaving &&
                 cluster_leaves(m_geometry.point_cluster_plane(c), to_vec(cluster.centre),
-                               cluster.radius, space.ray.origin, leaving)) {
+                               cluster.radius, space.ray.origin, leaving, leaving_start,
+                               leaving_near)) {
                 continue;
             }
             m_stats.points_tested += cluster.count;
@@ -547,7 +554,7 @@ class Walk {
         }
         if (l.t_min > 0.0f && !enters_solid(space, solid, normal) &&
             leaves(space, std::abs(plane), p.t * p.t + p.offset.squaredNorm(), kCoplanarPoint * h,
-                   2.0f * h)) {
+                   kPointSize * h)) {
             // As for triangles: the surface a cone leaves is not met again by the points that
             // stand for it (a coarse level's points reach far across the start).
             return;

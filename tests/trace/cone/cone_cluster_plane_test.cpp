@@ -127,6 +127,69 @@ TEST(ConeClusterPlane, AFlatClusterIsLeftByAConeStartingInIt) {
     EXPECT_FALSE(cluster_leaves(plane, centre, radius, members[3].position + 2e-3f * up, 1e-3f));
 }
 
+/// The second clause (a curved surface's members around the apex): whenever it says so, every
+/// member's tangent plane passes within `start` of the apex and the member lies within `near`
+/// of it, recomputed in double; a tolerance of zero leaves the first clause out.
+TEST(ConeClusterPlane, SaysAroundTheApexOnlyWhereEveryMemberIs) {
+    std::mt19937_64 rng(29);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::uniform_real_distribution<float> positive(0.0f, 1.0f);
+    int said = 0;
+    int not_said = 0;
+    for (int n = 0; n < 20000; ++n) {
+        const float scale = std::pow(10.0f, 2.0f * unit(rng));
+        const Vec3f centre = scale * 10.0f * Vec3f(unit(rng), unit(rng), unit(rng));
+        const Vec3f up = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
+        const float size = scale * (0.1f + positive(rng));
+        const float curvature = size * (1.0f + 100.0f * positive(rng));
+        const std::vector<Member> members = patch(rng, centre, up, size, curvature, 0.0f);
+        Vec3f box_centre = Vec3f::Zero();
+        for (const Member& m : members) {
+            box_centre += m.position / 16.0f;
+        }
+        const ConeClusterPlane plane = plane_of(members, box_centre);
+        const float radius = radius_of(members, box_centre);
+        const float start = size * 0.5f * positive(rng);
+        const float near = size * 3.0f * positive(rng);
+        const Vec3f along = up.unitOrthogonal() * size * unit(rng);
+        const Vec3f apex = members[0].position + along + start * unit(rng) * members[0].normal;
+        if (!cluster_leaves(plane, box_centre, radius, apex, 0.0f, start, near)) {
+            ++not_said;
+            continue;
+        }
+        ++said;
+        for (const Member& m : members) {
+            const Vec3d apart = (m.position - apex).cast<double>();
+            EXPECT_LE(std::abs(m.normal.cast<double>().dot(apart)),
+                      static_cast<double>(start) * (1.0 + 1e-5) + 1e-7 * scale)
+                << "case " << n;
+            EXPECT_LE(apart.norm(), static_cast<double>(near) * (1.0 + 1e-5) + 1e-7 * scale)
+                << "case " << n;
+        }
+    }
+    EXPECT_GT(said, 500);
+    EXPECT_GT(not_said, 2000);
+}
+
+TEST(ConeClusterPlane, ACurvedClusterAroundTheApexIsLeft) {
+    std::mt19937_64 rng(4);
+    const Vec3f up = Vec3f(0.2f, 1.0f, -0.3f).normalized();
+    // A cap of a sphere of radius 20 across 1: not flat to a tolerance of 1e-3 (its sag is
+    // about 6e-3), but within a start of 0.1 of an apex on it.
+    const std::vector<Member> members = patch(rng, Vec3f(5.0f, 1.0f, -2.0f), up, 1.0f, 20.0f, 0.0f);
+    Vec3f centre = Vec3f::Zero();
+    for (const Member& m : members) {
+        centre += m.position / 16.0f;
+    }
+    const ConeClusterPlane plane = plane_of(members, centre);
+    const float radius = radius_of(members, centre);
+    const Vec3f apex = members[3].position;
+    EXPECT_FALSE(cluster_leaves(plane, centre, radius, apex, 1e-3f));
+    EXPECT_TRUE(cluster_leaves(plane, centre, radius, apex, 1e-3f, 0.1f, 2.0f));
+    // Every member near enough, but not all of it within reach of the apex: not left.
+    EXPECT_FALSE(cluster_leaves(plane, centre, radius, apex, 1e-3f, 0.1f, 0.5f * radius));
+}
+
 TEST(ConeClusterPlane, NormalsThatCancelHaveNoPlane) {
     const std::vector<Member> members = {{Vec3f::Zero(), Vec3f::UnitY()},
                                          {Vec3f::UnitX(), -Vec3f::UnitY()}};
