@@ -67,6 +67,39 @@ float radius_of(const std::vector<Member>& members, const Vec3f& centre) {
     return r;
 }
 
+/// A patch `size` across, at a random scale from 0.01 to 100, within ten scales of the origin,
+/// facing a random way, with its plane about its members' mean and its bounding radius.
+/// `shape(size)` gives the patch's curvature radius and noise (patch()).
+struct RandomCluster {
+    float scale = 0.0f;
+    float size = 0.0f;
+    Vec3f up;
+    std::vector<Member> members;
+    Vec3f centre;
+    ConeClusterPlane plane;
+    float radius = 0.0f;
+};
+
+template <class Shape>
+RandomCluster random_cluster(std::mt19937_64& rng, Shape&& shape) {
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::uniform_real_distribution<float> positive(0.0f, 1.0f);
+    RandomCluster c;
+    c.scale = std::pow(10.0f, 2.0f * unit(rng));
+    const Vec3f centre = c.scale * 10.0f * Vec3f(unit(rng), unit(rng), unit(rng));
+    c.up = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
+    c.size = c.scale * (0.1f + positive(rng));
+    const auto [curvature, noise] = shape(c.size);
+    c.members = patch(rng, centre, c.up, c.size, curvature, noise);
+    c.centre = Vec3f::Zero();
+    for (const Member& m : c.members) {
+        c.centre += m.position / 16.0f;
+    }
+    c.plane = plane_of(c.members, c.centre);
+    c.radius = radius_of(c.members, c.centre);
+    return c;
+}
+
 TEST(ConeClusterPlane, SaysLeavesOnlyWhereEveryMemberLeaves) {
     std::mt19937_64 rng(23);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
@@ -74,20 +107,12 @@ TEST(ConeClusterPlane, SaysLeavesOnlyWhereEveryMemberLeaves) {
     int said = 0;
     int not_said = 0;
     for (int n = 0; n < 20000; ++n) {
-        const float scale = std::pow(10.0f, 2.0f * unit(rng));
-        const Vec3f centre = scale * 10.0f * Vec3f(unit(rng), unit(rng), unit(rng));
-        const Vec3f up = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
-        const float size = scale * (0.1f + positive(rng));
         const int kind = n % 3;
-        const float curvature = kind == 0 ? INFINITY : size * (2.0f + 100.0f * positive(rng));
-        const float noise = kind == 2 ? size * 1e-3f * positive(rng) : 0.0f;
-        const std::vector<Member> members = patch(rng, centre, up, size, curvature, noise);
-        Vec3f box_centre = Vec3f::Zero();
-        for (const Member& m : members) {
-            box_centre += m.position / 16.0f;
-        }
-        const ConeClusterPlane plane = plane_of(members, box_centre);
-        const float radius = radius_of(members, box_centre);
+        const auto [scale, size, up, members, box_centre, plane,
+                    radius] = random_cluster(rng, [&](float across) {
+            const float curvature = kind == 0 ? INFINITY : across * (2.0f + 100.0f * positive(rng));
+            return std::pair{curvature, kind == 2 ? across * 1e-3f * positive(rng) : 0.0f};
+        });
         // The apex on the surface near the patch, or a little off it, or far.
         const float tolerance = size * 0.01f * positive(rng);
         const Vec3f along = up.unitOrthogonal() * size * 3.0f * unit(rng);
@@ -137,18 +162,10 @@ TEST(ConeClusterPlane, SaysAroundTheApexOnlyWhereEveryMemberIs) {
     int said = 0;
     int not_said = 0;
     for (int n = 0; n < 20000; ++n) {
-        const float scale = std::pow(10.0f, 2.0f * unit(rng));
-        const Vec3f centre = scale * 10.0f * Vec3f(unit(rng), unit(rng), unit(rng));
-        const Vec3f up = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
-        const float size = scale * (0.1f + positive(rng));
-        const float curvature = size * (1.0f + 100.0f * positive(rng));
-        const std::vector<Member> members = patch(rng, centre, up, size, curvature, 0.0f);
-        Vec3f box_centre = Vec3f::Zero();
-        for (const Member& m : members) {
-            box_centre += m.position / 16.0f;
-        }
-        const ConeClusterPlane plane = plane_of(members, box_centre);
-        const float radius = radius_of(members, box_centre);
+        const auto [scale, size, up, members, box_centre, plane, radius] =
+            random_cluster(rng, [&](float across) {
+                return std::pair{across * (1.0f + 100.0f * positive(rng)), 0.0f};
+            });
         const float start = size * 0.5f * positive(rng);
         const float near = size * 3.0f * positive(rng);
         const Vec3f along = up.unitOrthogonal() * size * unit(rng);
