@@ -17,7 +17,7 @@ namespace mrt {
 struct ApexEllipse {
     bool valid = false;        ///< False: the cone's footprint is not t·D (decompose F(t) itself).
     SymmetricEigen2 unit;      ///< D·Dᵀ's decomposition, as FootprintCone::ellipse_of gives it.
-    GaussianFrame unit_frame;  ///< GaussianFrame::of_clamped(D): the frame at t = 1.
+    GaussianFrame unit_frame;  ///< D's anisotropy-clamped frame: the frame at t = 1.
 
     /// D's decompositions where `cone` is t·D (not blurred, start_dev zero, D finite and not
     /// degenerate), else invalid.
@@ -30,7 +30,10 @@ struct ApexEllipse {
         if (!(apex.unit.major > 0.0f) || !std::isfinite(apex.unit.major)) {
             return apex;
         }
-        apex.unit_frame = GaussianFrame::of_clamped(cone.incr_dev, max_anisotropy);
+        // The clamp from the one decomposition (as the traversal's varying clusters clamp).
+        SymmetricEigen2 clamped = apex.unit;
+        FootprintCone::clamp_decomposed(cone.incr_dev, max_anisotropy, clamped);
+        apex.unit_frame = GaussianFrame::of_ellipse(clamped);
         apex.valid = true;
         return apex;
     }
