@@ -68,7 +68,8 @@ struct RayLanes {
 
 /// spheres_near_axis_scalar, a vector of spheres at a time.
 std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t count,
-                                     const ConeRay& ray, float reach, float t_min, float t_max) {
+                                     const ConeRay& ray, float reach, float t_min, float t_max,
+                                     const GaussianSquare& square) {
     const hn::CappedTag<float, kConeClusterSize> d;
     const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
     const std::uint32_t used = std::min(count, kConeClusterSize);
@@ -77,6 +78,12 @@ std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t 
     const auto reach_v = hn::Set(d, reach);
     const auto t_min_v = hn::Set(d, t_min);
     const auto t_max_v = hn::Set(d, t_max);
+    const auto m00 = hn::Set(d, square.m00);
+    const auto m01 = hn::Set(d, square.m01);
+    const auto m11 = hn::Set(d, square.m11);
+    const auto square_reach = hn::Set(d, square.reach);
+    const auto stretch = hn::Set(d, square.stretch);
+    const auto rounding = hn::Set(d, kGaussianSquareRounding);
     std::uint32_t mask = 0;
     for (std::uint32_t k = 0; k < used; k += lanes) {
         const auto px = hn::Load(d, block.x.data() + k) - ox;
@@ -90,8 +97,14 @@ std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t 
         const auto before = t + r < t_min_v;
         const auto after = t - r > t_max_v;
         const auto beside = a * a + b * b > within * within;
-        // Comparisons with a NaN are false: a damaged sphere is never before, after or beside.
-        const auto inside = hn::Not(hn::Or(hn::Or(before, after), beside));
+        const auto gx = m00 * a + m01 * b;
+        const auto gy = m01 * a + m11 * b;
+        const auto size = hn::Abs(t) + hn::Abs(a) + hn::Abs(b) + r;
+        const auto slack = square_reach + stretch * r + rounding * stretch * size;
+        const auto outside_square = hn::Or(hn::Abs(gx) > slack, hn::Abs(gy) > slack);
+        // Comparisons with a NaN are false: a damaged sphere is never before, after, beside or
+        // outside the square.
+        const auto inside = hn::Not(hn::Or(hn::Or(before, after), hn::Or(beside, outside_square)));
         mask |= lane_bits(d, inside) << k;
     }
     return mask & bits_below(used);
@@ -221,8 +234,10 @@ HWY_EXPORT(children_near_cone_simd);
 HWY_EXPORT(target_name);
 
 std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_t count,
-                                const ConeRay& ray, float reach, float t_min, float t_max) {
-    return HWY_DYNAMIC_DISPATCH(spheres_near_axis_simd)(block, count, ray, reach, t_min, t_max);
+                                const ConeRay& ray, float reach, float t_min, float t_max,
+                                const GaussianSquare& square) {
+    return HWY_DYNAMIC_DISPATCH(spheres_near_axis_simd)(block, count, ray, reach, t_min, t_max,
+                                                        square);
 }
 
 std::uint32_t voxels_within_clip(const ConeVoxelBlock& block, std::uint32_t count,

@@ -39,17 +39,40 @@ struct alignas(64) ConeBoundBlock {
 };
 static_assert(sizeof(ConeBoundBlock) == 4 * 4 * kConeClusterSize);
 
+/// The square a triangle's cull keeps in a Gaussian frame's units (the traversal's per-vertex
+/// cull: |y_x|, |y_y| ≤ reach for the vertices y mapped by GaussianFrame::map), as a test of
+/// the triangles' bounding spheres. `m` is the frame's map, the symmetric U·Λ^(−1/2)·Uᵀ from the
+/// ray's u/v offsets, and `stretch` at least its norm ‖m‖₂: a sphere of radius r around c maps
+/// within stretch·r of m·c along either axis, so where m·c lies farther than reach + stretch·r
+/// beyond the square on one side, so do the triangle's vertices, and the cull would reject it.
+/// The default keeps everything.
+struct GaussianSquare {
+    float m00 = 0.0f;
+    float m01 = 0.0f;
+    float m11 = 0.0f;
+    float reach = std::numeric_limits<float>::infinity();
+    float stretch = 0.0f;
+};
+
+/// Relative rounding allowed for, times the stretched size of a sphere's place in the ray's frame
+/// (|t| + |a| + |b| + r): the block maps a sphere's centre with the entries of m, the cull maps
+/// the vertices axis by axis (GaussianFrame::map), and their rounding differs by a few ulps of
+/// the coordinates they map, so a sphere is rejected only where it lies that much beyond.
+inline constexpr float kGaussianSquareRounding = 1.0f / 16384.0f;
+
 /// Bit k (k < count, the block's spheres in use) set when sphere k of `block` may hold something
-/// within `reach` of `ray`'s axis between t_min and t_max: its depths overlap them and its centre
-/// lies within reach + radius of the axis. Conservative for non-finite input (a NaN never clears
-/// a bit of a sphere in use), as one sphere's test is. The SIMD kernel, dispatched at run time.
+/// within `reach` of `ray`'s axis between t_min and t_max: its depths overlap them, its centre
+/// lies within reach + radius of the axis, and it reaches into `square` (GaussianSquare).
+/// Conservative for non-finite input (a NaN never clears a bit of a sphere in use), as one
+/// sphere's test is. The SIMD kernel, dispatched at run time.
 std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_t count,
-                                const ConeRay& ray, float reach, float t_min, float t_max);
+                                const ConeRay& ray, float reach, float t_min, float t_max,
+                                const GaussianSquare& square = {});
 
 /// spheres_near_axis one sphere at a time: the reference.
 inline std::uint32_t spheres_near_axis_scalar(const ConeBoundBlock& block, std::uint32_t count,
                                               const ConeRay& ray, float reach, float t_min,
-                                              float t_max) {
+                                              float t_max, const GaussianSquare& square = {}) {
     const Vec3f& o = ray.origin;
     const Vec3f& d = ray.direction;
     const Vec3f& u = ray.cone.u;
@@ -67,7 +90,13 @@ inline std::uint32_t spheres_near_axis_scalar(const ConeBoundBlock& block, std::
         const bool before = t + r < t_min;
         const bool after = t - r > t_max;
         const bool beside = a * a + b * b > within * within;
-        inside[k] = (before | after | beside) ? 0u : 1u;
+        const float gx = square.m00 * a + square.m01 * b;
+        const float gy = square.m01 * a + square.m11 * b;
+        const float size = std::abs(t) + std::abs(a) + std::abs(b) + r;
+        const float slack =
+            square.reach + square.stretch * r + kGaussianSquareRounding * square.stretch * size;
+        const bool outside_square = std::abs(gx) > slack || std::abs(gy) > slack;
+        inside[k] = (before | after | beside | outside_square) ? 0u : 1u;
     }
     std::uint32_t mask = 0;
     for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {

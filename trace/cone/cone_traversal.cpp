@@ -669,11 +669,16 @@ class Walk {
                 frame = GaussianFrame::of_ellipse(ellipse);
                 cluster_radius = std::sqrt(ellipse.major);
             }
-            // The circle around the cull's ellipse (of the frame the triangle loop culls with).
+            // The circle around the cull's ellipse (of the frame the triangle loop culls with),
+            // and the per-vertex cull's square in that frame: half the triangles a cluster let
+            // through were rejected by the square after their vertices had been gathered and
+            // projected.
             const float triangle_reach = (per_vertex ? kCullMargin : 1.0f) * units * cluster_radius;
+            const GaussianSquare square =
+                per_vertex ? frame.square(kCullMargin * units) : GaussianSquare{};
             for (std::uint32_t near =
                      spheres_near_axis(m_geometry.triangle_bounds(c), cluster.count, space.ray,
-                                       triangle_reach, l.t_min, l.t_max);
+                                       triangle_reach, l.t_min, l.t_max, square);
                  near != 0; near &= near - 1) {
                 const std::uint32_t j =
                     cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));

@@ -30,6 +30,7 @@
 #include "common/footprint/point_weight.h"
 #include "common/math/math.h"
 #include "common/system/enum_names.h"
+#include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_ray.h"
 
 #include <algorithm>
@@ -73,6 +74,16 @@ struct GaussianFrame {
         const Vec2f minor_axis(-axis.y(), axis.x());
         return offset.dot(axis) * inverse_semi_axes.x() * axis +
                offset.dot(minor_axis) * inverse_semi_axes.y() * minor_axis;
+    }
+    /// The square |y_x|, |y_y| ≤ reach of this frame's units as a block of bounding spheres
+    /// tests it (spheres_near_axis): the map's matrix and its norm.
+    GaussianSquare square(float reach) const {
+        const float s0 = inverse_semi_axes.x();
+        const float s1 = inverse_semi_axes.y();
+        const float xx = axis.x() * axis.x();
+        const float xy = axis.x() * axis.y();
+        const float yy = axis.y() * axis.y();
+        return {s0 * xx + s1 * yy, (s0 - s1) * xy, s0 * yy + s1 * xx, reach, std::max(s0, s1)};
     }
 };
 

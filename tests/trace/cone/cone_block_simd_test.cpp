@@ -14,6 +14,7 @@
 #include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_bounds.h"
 #include "trace/cone/cone_ray.h"
+#include "trace/cone/cone_triangle.h"
 
 #include <gtest/gtest.h>
 #include <hwy/targets.h>
@@ -237,6 +238,69 @@ TEST_P(ConeBlockKernels, SpheresNearAxisAgreeWithScalar) {
             const bool is_decided = decided({{t + r, t_min, depth_scale, false},
                                              {t - r, t_max, depth_scale, true},
                                              beyond(a * a + b * b, within, p.norm())});
+            ASSERT_TRUE(
+                agreement.add(((simd >> k) & 1u) != 0, ((scalar >> k) & 1u) != 0, is_decided))
+                << "case " << i << " sphere " << k;
+        }
+    }
+    agreement.expect_consistent();
+}
+
+TEST_P(ConeBlockKernels, SpheresNearAxisInASquareAgreeWithScalar) {
+    // The triangle cull's square (GaussianSquare) on top of the circle: spheres whose mapped
+    // centres lie inside, on and beyond its sides, for frames of every orientation and
+    // anisotropy.
+    std::mt19937_64 rng(47);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    Agreement agreement;
+    for (int i = 0; i < 20000; ++i) {
+        const ConeRay ray = random_ray(rng);
+        const float scale = std::pow(10.0f, 2.0f * unit(rng));
+        GaussianFrame frame;
+        const float angle = 3.14159265f * unit(rng);
+        frame.axis = Vec2f(std::cos(angle), std::sin(angle));
+        frame.inverse_semi_axes = Vec2f(1.0f, std::pow(10.0f, 0.9f * (1.0f + unit(rng)))) / scale;
+        const float units = 2.5f;
+        const GaussianSquare square = frame.square(units);
+        const std::uint32_t count = static_cast<std::uint32_t>(i) % (kConeClusterSize + 1);
+        ConeBoundBlock block;
+        for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+            const float radius = random_radius(rng, 0.3f * scale);
+            // A direction in the frame's units, scaled so that its larger coordinate lies at
+            // the square's side widened by the radius (times a factor around 1), and back.
+            const Vec2f g = Vec2f(unit(rng), unit(rng));
+            const float side = (units + square.stretch * radius) * random_reach_factor(rng) /
+                               g.cwiseAbs().maxCoeff();
+            const Mat2f m = (Mat2f() << square.m00, square.m01, square.m01, square.m11).finished();
+            const Vec2f across = m.inverse() * (side * g);
+            const Vec3f centre = ray.origin +
+                                 scale * 8.0f * (1.0f + 0.5f * unit(rng)) * ray.direction +
+                                 across.x() * ray.cone.u + across.y() * ray.cone.v;
+            block.x[k] = centre.x();
+            block.y[k] = centre.y();
+            block.z[k] = centre.z();
+            block.radius[k] = radius;
+        }
+        const float reach = std::numeric_limits<float>::max();
+        const std::uint32_t simd = spheres_near_axis(block, count, ray, reach, 0.0f, 1e30f, square);
+        const std::uint32_t scalar =
+            spheres_near_axis_scalar(block, count, ray, reach, 0.0f, 1e30f, square);
+        ASSERT_EQ(simd & unused_bits(count, kConeClusterSize), 0u) << "case " << i;
+        for (std::uint32_t k = 0; k < count; ++k) {
+            const Vec3f p = Vec3f(block.x[k], block.y[k], block.z[k]) - ray.origin;
+            const double t = p.dot(ray.direction);
+            const double a = p.dot(ray.cone.u);
+            const double b = p.dot(ray.cone.v);
+            const double r = block.radius[k];
+            const double gx = square.m00 * a + square.m01 * b;
+            const double gy = square.m01 * a + square.m11 * b;
+            const double size = std::abs(t) + std::abs(a) + std::abs(b) + r;
+            const double slack =
+                square.reach + square.stretch * r + kGaussianSquareRounding * square.stretch * size;
+            // The mapped coordinates round with the ray-frame coordinates they come from.
+            const double mapped_scale = square.stretch * (p.norm() + r) + slack;
+            const bool is_decided = decided({{std::abs(gx), slack, mapped_scale, true},
+                                             {std::abs(gy), slack, mapped_scale, true}});
             ASSERT_TRUE(
                 agreement.add(((simd >> k) & 1u) != 0, ((scalar >> k) & 1u) != 0, is_decided))
                 << "case " << i << " sphere " << k;
