@@ -22,6 +22,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "trace/cone/cone_block_simd.cpp"
@@ -84,6 +85,8 @@ std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t 
     const auto square_reach = hn::Set(d, square.reach);
     const auto stretch = hn::Set(d, square.stretch);
     const auto rounding = hn::Set(d, kGaussianSquareRounding);
+    // The default square keeps everything (its slack is +∞ or NaN): its lanes are not worked.
+    const bool squared = square.reach < std::numeric_limits<float>::infinity();
     std::uint32_t mask = 0;
     for (std::uint32_t k = 0; k < used; k += lanes) {
         const auto px = hn::Load(d, block.x.data() + k) - ox;
@@ -97,14 +100,17 @@ std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t 
         const auto before = t + r < t_min_v;
         const auto after = t - r > t_max_v;
         const auto beside = a * a + b * b > within * within;
-        const auto gx = m00 * a + m01 * b;
-        const auto gy = m01 * a + m11 * b;
-        const auto size = hn::Abs(t) + hn::Abs(a) + hn::Abs(b) + r;
-        const auto slack = square_reach + stretch * r + rounding * stretch * size;
-        const auto outside_square = hn::Or(hn::Abs(gx) > slack, hn::Abs(gy) > slack);
         // Comparisons with a NaN are false: a damaged sphere is never before, after, beside or
         // outside the square.
-        const auto inside = hn::Not(hn::Or(hn::Or(before, after), hn::Or(beside, outside_square)));
+        auto inside = hn::Not(hn::Or(hn::Or(before, after), beside));
+        if (squared) {
+            const auto gx = m00 * a + m01 * b;
+            const auto gy = m01 * a + m11 * b;
+            const auto size = hn::Abs(t) + hn::Abs(a) + hn::Abs(b) + r;
+            const auto slack = square_reach + stretch * r + rounding * stretch * size;
+            const auto outside_square = hn::Or(hn::Abs(gx) > slack, hn::Abs(gy) > slack);
+            inside = hn::AndNot(outside_square, inside);
+        }
         mask |= lane_bits(d, inside) << k;
     }
     return mask & bits_below(used);
