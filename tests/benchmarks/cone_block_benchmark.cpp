@@ -4,9 +4,11 @@
 // instruction set the CPU has; the label names it). Each iteration tests one block, so the
 // figures are nanoseconds per block, dispatch included: a cluster's 16 triangle bounding spheres
 // against the cone's reach, a cluster's 16 point voxels against the clip, a node's 8 children
-// against the cone's circle. 512 different random blocks (a few hundred kilobytes, in the
-// second-level cache as a node's blocks are when the traversal reads them) are cycled through,
-// so that the branch predictor does not learn one; 10 to 50 % of their members pass.
+// against the cone's circle, and the points of a cluster the voxel test let through placed,
+// tested and given their exponents (weigh_points). 512 different random blocks (a few hundred
+// kilobytes, in the second-level cache as a node's blocks are when the traversal reads them) are
+// cycled through, so that the branch predictor does not learn one; 10 to 50 % of their members
+// pass.
 
 #include "common/footprint/footprint.h"
 #include "common/footprint/point_weight.h"
@@ -14,6 +16,7 @@
 #include "trace/cone/cone_block_simd.h"
 #include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_bounds.h"
+#include "trace/cone/cone_point_lanes.h"
 #include "trace/cone/cone_ray.h"
 
 #include <benchmark/benchmark.h>
@@ -168,6 +171,60 @@ const std::vector<ChildCase>& child_cases() {
     return cases;
 }
 
+struct PointCase {
+    PointLanesInput in;
+    ConeVoxelBlock block;
+    std::uint32_t candidates = 0;
+    std::uint32_t count = 0;  ///< The candidates.
+};
+
+/// A cluster of a node's points (a 16³ grid, random normals) with the cone's axis through the
+/// node and a footprint of a few voxels; the voxel test has let 4 to 16 of them through.
+const std::vector<PointCase>& point_cases() {
+    static const std::vector<PointCase> cases = [] {
+        std::mt19937_64 rng(73);
+        std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+        std::uniform_int_distribution<int> index(0, 15);
+        std::uniform_int_distribution<int> offset(-127, 127);
+        std::uniform_int_distribution<int> normal(0, 65535);
+        std::uniform_int_distribution<std::uint32_t> mask(0, 0xffffu);
+        std::vector<PointCase> out(kBlocks);
+        for (PointCase& c : out) {
+            const ConeRay ray = random_ray(rng);
+            const float h = 0.01f;
+            const Vec3f origin = beside_axis(ray, 5.0f, 0.02f, rng) - Vec3f::Constant(8.0f * h);
+            const VertexInRayFrame first = ray.frame_of(origin + Vec3f::Constant(0.5f * h));
+            c.in.first = {first.t, first.offset.x(), first.offset.y()};
+            for (std::size_t a = 0; a < 3; ++a) {
+                const auto i = static_cast<Eigen::Index>(a);
+                c.in.step[a] = {h * ray.direction[i], h * ray.cone.u[i], h * ray.cone.v[i]};
+            }
+            c.in.direction = ray.direction;
+            c.in.u = ray.cone.u;
+            c.in.v = ray.cone.v;
+            c.in.spacing = h;
+            c.in.inverse = Mat2f::Identity() / (3.0f * h);
+            c.in.clip = kPointWeightClipExponent;
+            c.in.t_min = 0.0f;
+            c.in.t_max = 100.0f;
+            c.in.back_faces = true;
+            c.in.outward = 1.0f;
+            for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+                c.block.x[k] = static_cast<std::uint8_t>(index(rng));
+                c.block.y[k] = static_cast<std::uint8_t>(index(rng));
+                c.block.z[k] = static_cast<std::uint8_t>(index(rng));
+                c.block.offset[k] = static_cast<std::int8_t>(offset(rng));
+                c.block.normal_u[k] = static_cast<std::uint16_t>(normal(rng));
+                c.block.normal_v[k] = static_cast<std::uint16_t>(normal(rng));
+            }
+            c.candidates = mask(rng) | mask(rng) | 0xfu;
+            c.count = static_cast<std::uint32_t>(std::popcount(c.candidates));
+        }
+        return out;
+    }();
+    return cases;
+}
+
 /// Runs `test(case) -> mask` over the cases, one per iteration; then, untimed, counts the
 /// members kept.
 template <typename Case, typename Test>
@@ -239,6 +296,27 @@ void BM_ChildrenNearConeSimd(benchmark::State& state) {
     });
 }
 BENCHMARK(BM_ChildrenNearConeSimd);
+
+void BM_WeighPointsScalar(benchmark::State& state) {
+    PointLanes lanes;
+    run_blocks(state, point_cases(), [&](const PointCase& c) {
+        const std::uint32_t mask = weigh_points_scalar(c.block, c.candidates, c.in, lanes);
+        benchmark::DoNotOptimize(lanes);
+        return mask;
+    });
+}
+BENCHMARK(BM_WeighPointsScalar);
+
+void BM_WeighPointsSimd(benchmark::State& state) {
+    state.SetLabel(block_kernel_target());
+    PointLanes lanes;
+    run_blocks(state, point_cases(), [&](const PointCase& c) {
+        const std::uint32_t mask = weigh_points(c.block, c.candidates, c.in, lanes);
+        benchmark::DoNotOptimize(lanes);
+        return mask;
+    });
+}
+BENCHMARK(BM_WeighPointsSimd);
 
 }  // namespace
 }  // namespace mrt

@@ -16,6 +16,7 @@
 #include "common/footprint/point_weight.h"
 #include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_bounds.h"
+#include "trace/cone/cone_point_lanes.h"
 #include "trace/cone/cone_ray.h"
 
 #include <algorithm>
@@ -226,6 +227,129 @@ const char* target_name() {
     return hwy::TargetName(HWY_TARGET);
 }
 
+/// weigh_points_scalar, a vector of points at a time. Lanes without a candidate are worked too
+/// (their bits are cleared); a vector without any is skipped.
+std::uint32_t weigh_points_simd(const ConeVoxelBlock& block, std::uint32_t candidates,
+                                const PointLanesInput& in, PointLanes& out) {
+    const hn::CappedTag<float, kConeClusterSize> d;
+    const hn::RebindToSigned<decltype(d)> di;
+    const hn::Rebind<std::uint16_t, decltype(d)> d16;
+    const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
+    const std::uint32_t vector_bits = lanes >= 32 ? ~0u : (1u << lanes) - 1u;
+    const auto dx = hn::Set(d, in.direction.x());
+    const auto dy = hn::Set(d, in.direction.y());
+    const auto dz = hn::Set(d, in.direction.z());
+    const auto ux = hn::Set(d, in.u.x());
+    const auto uy = hn::Set(d, in.u.y());
+    const auto uz = hn::Set(d, in.u.z());
+    const auto vx = hn::Set(d, in.v.x());
+    const auto vy = hn::Set(d, in.v.y());
+    const auto vz = hn::Set(d, in.v.z());
+    const auto centre = hn::Set(di, NormalCode::kCentre);
+    const auto code_max = hn::Set(di, 2 * NormalCode::kCentre);
+    const auto zero_i = hn::Zero(di);
+    const auto offset_scale = hn::Set(d, 127.0f);
+    const auto spacing = hn::Set(d, in.spacing);
+    const auto m00 = hn::Set(d, in.inverse(0, 0));
+    const auto m01 = hn::Set(d, in.inverse(0, 1));
+    const auto m10 = hn::Set(d, in.inverse(1, 0));
+    const auto m11 = hn::Set(d, in.inverse(1, 1));
+    const auto clip = hn::Set(d, in.clip);
+    const auto t_min = hn::Set(d, in.t_min);
+    const auto t_max = hn::Set(d, in.t_max);
+    const auto outward = hn::Set(d, in.outward);
+    const auto start = hn::Set(d, in.start);
+    const auto coplanar = hn::Set(d, in.coplanar);
+    const auto near_squared = hn::Set(d, in.near * in.near);
+    const auto solid_outward = hn::Set(d, in.solid_outward);
+    const auto entering = hn::Set(d, -in.entering_cosine);
+    const auto one = hn::Set(d, 1.0f);
+    const auto two = hn::Set(d, 2.0f);
+    const auto three = hn::Set(d, 3.0f);
+    const auto plane_cosine = hn::Set(d, kPlaneDepthCosine);
+    const auto plane_blend = hn::Set(d, kPlaneDepthBlend);
+    const auto none = hn::FirstN(d, 0);
+    std::uint32_t hits = 0;
+    std::uint32_t back_faces = 0;
+    for (std::uint32_t k = 0; k < kConeClusterSize; k += lanes) {
+        if (((candidates >> k) & vector_bits) == 0) {
+            continue;
+        }
+        // decode_normal, on the integer grid.
+        const auto a =
+            hn::Min(hn::PromoteTo(di, hn::LoadU(d16, block.normal_u.data() + k)), code_max) -
+            centre;
+        const auto b =
+            hn::Min(hn::PromoteTo(di, hn::LoadU(d16, block.normal_v.data() + k)), code_max) -
+            centre;
+        const auto zi = centre - hn::Abs(a) - hn::Abs(b);
+        const auto fold = hn::Max(hn::Neg(zi), zero_i);
+        const auto xi = hn::IfThenElse(hn::Lt(a, zero_i), a + fold, a - fold);
+        const auto yi = hn::IfThenElse(hn::Lt(b, zero_i), b + fold, b - fold);
+        const auto fx = hn::ConvertTo(d, xi);
+        const auto fy = hn::ConvertTo(d, yi);
+        const auto fz = hn::ConvertTo(d, zi);
+        const auto norm = hn::Sqrt(fx * fx + (fy * fy + fz * fz));
+        const auto nx = fx / norm;
+        const auto ny = fy / norm;
+        const auto nz = fz / norm;
+        const auto along = nx * dx + (ny * dy + nz * dz);
+        const auto across_u = nx * ux + (ny * uy + nz * uz);
+        const auto across_v = nx * vx + (ny * vy + nz * vz);
+        // The voxel's centre (VoxelsInRayFrame::centre) moved along the normal.
+        const auto along_normal =
+            codes_as_floats(d, block.offset.data() + k) / offset_scale * spacing;
+        auto t = hn::Set(d, in.first[0]);
+        auto ou = hn::Set(d, in.first[1]);
+        auto ov = hn::Set(d, in.first[2]);
+        const std::array<hn::Vec<decltype(d)>, 3> code{codes_as_floats(d, block.x.data() + k),
+                                                       codes_as_floats(d, block.y.data() + k),
+                                                       codes_as_floats(d, block.z.data() + k)};
+        for (std::size_t axis = 0; axis < 3; ++axis) {
+            t = t + code[axis] * hn::Set(d, in.step[axis][0]);
+            ou = ou + code[axis] * hn::Set(d, in.step[axis][1]);
+            ov = ov + code[axis] * hn::Set(d, in.step[axis][2]);
+        }
+        t = t + along_normal * along;
+        ou = ou + along_normal * across_u;
+        ov = ov + along_normal * across_v;
+        const auto plane = t * along + (ou * across_u + ov * across_v);
+        const auto length = hn::Sqrt(nx * nx + (ny * ny + nz * nz));
+        const auto back = in.back_faces ? hn::Gt(outward * plane, start * length) : none;
+        const auto enters = in.may_enter ? hn::Lt(solid_outward * along, entering * length) : none;
+        const auto distance = hn::Abs(plane);
+        const auto squared = t * t + (ou * ou + ov * ov);
+        const auto near_plane =
+            hn::Or(hn::Le(distance, coplanar),
+                   hn::And(hn::Le(distance, start), hn::Le(squared, near_squared)));
+        const auto leaves = in.leaving ? hn::AndNot(enters, near_plane) : none;
+        const auto g0 = m00 * ou + m01 * ov;
+        const auto g1 = m10 * ou + m11 * ov;
+        const auto q = g0 * g0 + g1 * g1;
+        // intersect_cone_point's depth: where the axis meets the tangent plane, blended in
+        // from the point's own depth over the grazing cosines.
+        const auto c = hn::Abs(along);
+        const auto meets = t + (across_u * ou + across_v * ov) / along;
+        const auto s = hn::Min(one, (c - plane_cosine) / plane_blend);
+        const auto blended = t + s * s * (three - two * s) * (meets - t);
+        const auto depth = hn::IfThenElse(hn::Gt(c, plane_cosine), blended, t);
+        // NaN fails every comparison that keeps a point.
+        const auto kept = hn::And(hn::And(hn::Ge(t, t_min), hn::Le(q, clip)),
+                                  hn::AndNot(hn::Gt(depth, t_max), hn::Ge(depth, t_min)));
+        const auto hit = hn::AndNot(hn::Or(back, leaves), kept);
+        hn::Store(nx, d, out.nx.data() + k);
+        hn::Store(ny, d, out.ny.data() + k);
+        hn::Store(nz, d, out.nz.data() + k);
+        hn::Store(along, d, out.along.data() + k);
+        hn::Store(depth, d, out.t.data() + k);
+        hn::Store(q, d, out.q.data() + k);
+        hits |= lane_bits(d, hit) << k;
+        back_faces |= lane_bits(d, back) << k;
+    }
+    out.back_faces = back_faces & candidates;
+    return hits & candidates;
+}
+
 }  // namespace
 }  // namespace HWY_NAMESPACE
 }  // namespace mrt
@@ -237,6 +361,7 @@ namespace mrt {
 HWY_EXPORT(spheres_near_axis_simd);
 HWY_EXPORT(voxels_within_clip_simd);
 HWY_EXPORT(children_near_cone_simd);
+HWY_EXPORT(weigh_points_simd);
 HWY_EXPORT(target_name);
 
 std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_t count,
@@ -256,6 +381,11 @@ std::uint32_t children_near_cone(const ConeChildBlock& block, std::uint32_t coun
                                  float t_max, std::array<float, kConeChildCount>& nearest) {
     return HWY_DYNAMIC_DISPATCH(children_near_cone_simd)(block, count, ray, test, t_min, t_max,
                                                          nearest);
+}
+
+std::uint32_t weigh_points(const ConeVoxelBlock& block, std::uint32_t candidates,
+                           const PointLanesInput& in, PointLanes& lanes) {
+    return HWY_DYNAMIC_DISPATCH(weigh_points_simd)(block, candidates, in, lanes);
 }
 
 const char* block_kernel_target() {

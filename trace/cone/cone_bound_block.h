@@ -106,16 +106,19 @@ inline std::uint32_t spheres_near_axis_scalar(const ConeBoundBlock& block, std::
     return mask & ((1u << std::min(count, kConeClusterSize)) - 1u);
 }
 
-/// The voxel codes and surface offsets (PointCore::voxel, PointOffset::along_normal) of one point
-/// cluster's points, in structure-of-arrays form: what a cone needs to reject most of them before
-/// it reads their records.
+/// The voxel codes, surface offsets and normal codes (PointCore::voxel, PointOffset::along_normal,
+/// PointCore::normal) of one point cluster's points, in structure-of-arrays form: what a cone needs
+/// to reject most of them, and to place and weigh the rest (cone_point_lanes.h), before it reads
+/// their records.
 struct alignas(64) ConeVoxelBlock {
     std::array<std::uint8_t, kConeClusterSize> x{};
     std::array<std::uint8_t, kConeClusterSize> y{};
     std::array<std::uint8_t, kConeClusterSize> z{};
     std::array<std::int8_t, kConeClusterSize> offset{};
+    std::array<std::uint16_t, kConeClusterSize> normal_u{};
+    std::array<std::uint16_t, kConeClusterSize> normal_v{};
 };
-static_assert(sizeof(ConeVoxelBlock) == 4 * kConeClusterSize);
+static_assert(sizeof(ConeVoxelBlock) == 8 * kConeClusterSize);
 
 /// Where a node's voxel centres lie in the point weight's Gaussian coordinates (G⁻¹ times the
 /// offset from the cone's axis), affine in the voxel's indices.

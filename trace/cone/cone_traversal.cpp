@@ -6,6 +6,7 @@
 #include "common/math/quantization.h"
 #include "trace/cone/apex_ellipse.h"
 #include "trace/cone/cone_bounds.h"
+#include "trace/cone/cone_point_lanes.h"
 
 #include <algorithm>
 #include <array>
@@ -474,6 +475,34 @@ class Walk {
         const float leaving = 0.5f * kCoplanarPoint * h;
         const float leaving_start = 0.5f * space.start;
         const float leaving_near = 0.99f * (kPointSize * h + kNearApex * space.start);
+        // The points the voxel test lets through are decoded, placed and tested a cluster at a
+        // time, in SIMD lanes (weigh_points); only the hits are weighed and inserted one by one.
+        PointLanesInput in;
+        in.first = {voxels.first.t, voxels.first.offset.x(), voxels.first.offset.y()};
+        for (std::size_t a = 0; a < 3; ++a) {
+            in.step[a] = {voxels.step[a].t, voxels.step[a].offset.x(), voxels.step[a].offset.y()};
+        }
+        in.direction = space.ray.direction;
+        in.u = space.ray.cone.u;
+        in.v = space.ray.cone.v;
+        in.spacing = h;
+        in.inverse = frame.inverse;
+        in.clip = kPointWeightClipExponent;
+        in.t_min = l.t_min;
+        in.t_max = l.t_max;
+        in.back_faces = closed != nullptr;
+        in.outward = closed != nullptr ? closed->outward : 0.0f;
+        in.start = space.start;
+        // As for triangles: the surface a cone leaves is not met again by the points that
+        // stand for it (a coarse level's points reach far across the start), unless the cone
+        // enters the solid through them (enters_solid).
+        in.leaving = l.t_min > 0.0f;
+        in.coplanar = kCoplanarPoint * h;
+        in.near = kPointSize * h + kNearApex * space.start;
+        in.may_enter = !kShade && solid != nullptr;
+        in.solid_outward = solid != nullptr ? solid->outward : 0.0f;
+        in.entering_cosine = kEnteringCosine;
+        PointLanes lanes;
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
@@ -493,12 +522,18 @@ class Walk {
                 continue;
             }
             m_stats.points_tested += cluster.count;
-            for (std::uint32_t near =
-                     voxels_within_clip(m_geometry.point_voxels(c), cluster.count, voxels.gaussian);
-                 near != 0; near &= near - 1) {
-                const std::uint32_t j =
-                    cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));
-                point(space, m_geometry.point_order(j), frame, voxels, l, h, weight, closed, solid);
+            const ConeVoxelBlock& block = m_geometry.point_voxels(c);
+            const std::uint32_t near = voxels_within_clip(block, cluster.count, voxels.gaussian);
+            if (near == 0) {
+                continue;
+            }
+            const std::uint32_t hits = weigh_points(block, near, in, lanes);
+            m_stats.back_faces_culled +=
+                static_cast<std::uint64_t>(std::popcount(lanes.back_faces));
+            for (std::uint32_t bits = hits; bits != 0; bits &= bits - 1) {
+                const auto k = static_cast<std::size_t>(std::countr_zero(bits));
+                point(space, m_geometry.point_order(cluster.first + static_cast<std::uint32_t>(k)),
+                      frame, lanes, k, h, weight);
             }
         }
     }
@@ -523,50 +558,17 @@ class Walk {
             gaussian.clip = kClipRadius + kClipCullMargin;
             gaussian.offset_stretch = offset_stretch;
         }
-        VertexInRayFrame centre(const VoxelCode& code) const {
-            VertexInRayFrame c = first;
-            for (std::size_t a = 0; a < 3; ++a) {
-                const float i = static_cast<float>(code[a]);
-                c.t += i * step[a].t;
-                c.offset += i * step[a].offset;
-            }
-            return c;
-        }
     };
 
-    /// Point i of a node of spacing h, one that voxels_within_clip kept. `closed` is the solid
-    /// whose back the cone cannot see (nullptr: none), `solid` the closed surface of the node's
-    /// object whatever the cone.
+    /// Point i of a node of spacing h, lane k of `lanes` (weigh_points: it passed every test
+    /// but its weight): weighed and inserted.
     void point(const ConeSpace& space, std::uint32_t i, const PointWeightFrame& frame,
-               const VoxelsInRayFrame& voxels, const Look& l, float h, float weight,
-               const ClosedSurface* closed, const ClosedSurface* solid) {
-        const PointCore& core = m_view.core[i];
-        const std::int8_t offset_code = m_view.offset[i].along_normal;
-        const Vec3f normal = decode_normal(core.normal);
-        const NormalInRayFrame n{normal.dot(space.ray.direction),
-                                 Vec2f(normal.dot(space.ray.cone.u), normal.dot(space.ray.cone.v))};
-        // The point on the surface: its voxel's centre moved along the normal (point_position).
-        const float along_normal = decode_offset8(offset_code) * h;
-        VertexInRayFrame p = voxels.centre(core.voxel);
-        p.t += along_normal * n.along;
-        p.offset += along_normal * n.across;
-        // n·(p − apex), the signed distance of the apex from the point's tangent plane (times
-        // |n|, which decoding keeps within 2 ulps of 1).
-        const float plane = p.t * n.along + p.offset.dot(n.across);
-        if (closed != nullptr && closed->back_facing(plane, normal.norm(), space.start)) {
-            ++m_stats.back_faces_culled;
-            return;
-        }
-        if (l.t_min > 0.0f && !enters_solid(space, solid, normal) &&
-            leaves(space, std::abs(plane), p.t * p.t + p.offset.squaredNorm(), kCoplanarPoint * h,
-                   kPointSize * h)) {
-            // As for triangles: the surface a cone leaves is not met again by the points that
-            // stand for it (a coarse level's points reach far across the start).
-            return;
-        }
-        const auto hit =
-            intersect_cone_point(frame, p, n, decode_coverage8(core.coverage), l.t_min);
-        if (!hit || hit->t > l.t_max) {
+               const PointLanes& lanes, std::size_t k, float h, float weight) {
+        const float along = lanes.along[k];
+        // point_weight, from the exponent the lanes computed.
+        const float hit_weight = frame.scale * decode_coverage8(m_view.core[i].coverage) *
+                                 std::abs(along) * std::exp(-lanes.q[k]);
+        if (!(hit_weight > 0.0f)) {
             return;
         }
         ++m_stats.points_hit;
@@ -575,15 +577,17 @@ class Walk {
         // surface is slanted, keeps a closed object's front and back (a few voxels apart at the
         // level its cone uses) in fragments of their own.
         const float tolerance =
-            0.5f * h * (1.0f + 0.5f * grazing_tangent(n.along, kPointToleranceTangent));
+            0.5f * h * (1.0f + 0.5f * grazing_tangent(along, kPointToleranceTangent));
+        const float t = lanes.t[k];
         if constexpr (kShade) {
+            const Vec3f normal(lanes.nx[k], lanes.ny[k], lanes.nz[k]);
             const ConeSurface surface = point_surface(space, i, normal);
             m_buffer.insert(
-                hit->t * space.world_per_t, tolerance * space.world_per_t, weight * hit->weight,
+                t * space.world_per_t, tolerance * space.world_per_t, weight * hit_weight,
                 ConeSurface::Lazy{surface, [&] { return point_shape(space, i, normal, surface); }});
         } else {
-            m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
-                            weight * hit->weight, {});
+            m_buffer.insert(t * space.world_per_t, tolerance * space.world_per_t,
+                            weight * hit_weight, {});
         }
     }
 
@@ -1071,6 +1075,8 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                           block.y[i] = m_view.core[point].voxel[1];
                           block.z[i] = m_view.core[point].voxel[2];
                           block.offset[i] = m_view.offset[point].along_normal;
+                          block.normal_u[i] = m_view.core[point].normal.u;
+                          block.normal_v[i] = m_view.core[point].normal.v;
                       });
         items.clear();
         for (std::uint32_t k = 0; k < node.triangle_count; ++k) {
