@@ -102,12 +102,26 @@ PointWeightFrame point_weight_frame(const FootprintCone& cone, float t, float sp
 /// is `coverage` as the tracer decodes it (decode_coverage8 of the stored code). Zero outside the
 /// clip, for a point seen edge-on and for a degenerate frame; NaN offsets weigh 0.
 inline float point_weight(const PointWeightFrame& frame, const Vec2f& offset_uv,
+                          float normal_dot_direction, float coverage);
+
+/// The Gaussian's exponent q = |G⁻¹·offset|² of a point at `offset_uv` (point_weight's).
+inline float point_weight_exponent(const Mat2f& inverse, const Vec2f& offset_uv) {
+    return (inverse * offset_uv).squaredNorm();
+}
+
+/// point_weight from its exponent q, for a caller that clipped q itself.
+inline float point_weight_of_exponent(const PointWeightFrame& frame, float q,
+                                      float normal_dot_direction, float coverage) {
+    return frame.scale * coverage * std::abs(normal_dot_direction) * std::exp(-q);
+}
+
+inline float point_weight(const PointWeightFrame& frame, const Vec2f& offset_uv,
                           float normal_dot_direction, float coverage) {
-    const float q = (frame.inverse * offset_uv).squaredNorm();
+    const float q = point_weight_exponent(frame.inverse, offset_uv);
     if (!(q <= kPointWeightClipExponent)) {
         return 0.0f;
     }
-    return frame.scale * coverage * std::abs(normal_dot_direction) * std::exp(-q);
+    return point_weight_of_exponent(frame, q, normal_dot_direction, coverage);
 }
 
 }  // namespace mrt

@@ -188,6 +188,8 @@ const std::vector<PointCase>& point_cases() {
         std::uniform_int_distribution<int> offset(-127, 127);
         std::uniform_int_distribution<int> normal(0, 65535);
         std::uniform_int_distribution<std::uint32_t> mask(0, 0xffffu);
+        // A closed surface seen from outside: its back faces are tested.
+        static const ClosedSurface outward{{}, {}, 1.0f, 0.0f};
         std::vector<PointCase> out(kBlocks);
         for (PointCase& c : out) {
             const ConeRay ray = random_ray(rng);
@@ -204,11 +206,9 @@ const std::vector<PointCase>& point_cases() {
             c.in.v = ray.cone.v;
             c.in.spacing = h;
             c.in.inverse = Mat2f::Identity() / (3.0f * h);
-            c.in.clip = kPointWeightClipExponent;
             c.in.t_min = 0.0f;
             c.in.t_max = 100.0f;
-            c.in.back_faces = true;
-            c.in.outward = 1.0f;
+            c.in.closed = &outward;
             for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
                 c.block.x[k] = static_cast<std::uint8_t>(index(rng));
                 c.block.y[k] = static_cast<std::uint8_t>(index(rng));

@@ -50,6 +50,12 @@ struct ClosedSurface {
     bool back_facing(float normal_dot_apart, float normal_length, float margin) const {
         return outward * normal_dot_apart > margin * normal_length;
     }
+    /// Whether a cone along d goes into the solid through a primitive whose normal n (of length
+    /// `normal_length`) has n·d = `normal_dot_direction`: against the outward normal by more
+    /// than the cosine `margin`.
+    bool entered_through(float normal_dot_direction, float normal_length, float margin) const {
+        return outward * normal_dot_direction < -margin * normal_length;
+    }
 };
 
 class ClosedSurfaces {

@@ -254,14 +254,14 @@ std::uint32_t weigh_points_simd(const ConeVoxelBlock& block, std::uint32_t candi
     const auto m01 = hn::Set(d, in.inverse(0, 1));
     const auto m10 = hn::Set(d, in.inverse(1, 0));
     const auto m11 = hn::Set(d, in.inverse(1, 1));
-    const auto clip = hn::Set(d, in.clip);
+    const auto clip = hn::Set(d, kPointWeightClipExponent);
     const auto t_min = hn::Set(d, in.t_min);
     const auto t_max = hn::Set(d, in.t_max);
-    const auto outward = hn::Set(d, in.outward);
+    const auto outward = hn::Set(d, in.closed != nullptr ? in.closed->outward : 0.0f);
     const auto start = hn::Set(d, in.start);
     const auto coplanar = hn::Set(d, in.coplanar);
     const auto near_squared = hn::Set(d, in.near * in.near);
-    const auto solid_outward = hn::Set(d, in.solid_outward);
+    const auto solid_outward = hn::Set(d, in.entered != nullptr ? in.entered->outward : 0.0f);
     const auto entering = hn::Set(d, -in.entering_cosine);
     const auto one = hn::Set(d, 1.0f);
     const auto two = hn::Set(d, 2.0f);
@@ -315,8 +315,10 @@ std::uint32_t weigh_points_simd(const ConeVoxelBlock& block, std::uint32_t candi
         ov = ov + along_normal * across_v;
         const auto plane = t * along + (ou * across_u + ov * across_v);
         const auto length = hn::Sqrt(nx * nx + (ny * ny + nz * nz));
-        const auto back = in.back_faces ? hn::Gt(outward * plane, start * length) : none;
-        const auto enters = in.may_enter ? hn::Lt(solid_outward * along, entering * length) : none;
+        // ClosedSurface::back_facing and entered_through.
+        const auto back = in.closed != nullptr ? hn::Gt(outward * plane, start * length) : none;
+        const auto enters =
+            in.entered != nullptr ? hn::Lt(solid_outward * along, entering * length) : none;
         const auto distance = hn::Abs(plane);
         const auto squared = t * t + (ou * ou + ov * ov);
         const auto near_plane =
@@ -326,8 +328,8 @@ std::uint32_t weigh_points_simd(const ConeVoxelBlock& block, std::uint32_t candi
         const auto g0 = m00 * ou + m01 * ov;
         const auto g1 = m10 * ou + m11 * ov;
         const auto q = g0 * g0 + g1 * g1;
-        // intersect_cone_point's depth: where the axis meets the tangent plane, blended in
-        // from the point's own depth over the grazing cosines.
+        // point_depth: where the axis meets the tangent plane, blended in from the point's own
+        // depth over the grazing cosines.
         const auto c = hn::Abs(along);
         const auto meets = t + (across_u * ou + across_v * ov) / along;
         const auto s = hn::Min(one, (c - plane_cosine) / plane_blend);

@@ -7,13 +7,16 @@
 //
 // Two forms, as for the block tests (cone_bound_block.h): `weigh_points` runs a Highway kernel
 // (trace/cone/cone_block_simd.cpp) dispatched at run time, `weigh_points_scalar` one point at a
-// time is the reference. Both evaluate the expressions of the per-point code they replaced
-// (decode_normal, the voxel centre affine in its codes, intersect_cone_point, Walk::leaves, the
-// closed surface's back_facing) in the same order, Eigen's three-term sums as x + (y + z), and
-// without fused multiply-adds: the traversal's images did not change.
+// time is the reference, and calls what the per-point code it replaced called (decode_normal,
+// point_weight_exponent, point_depth, is_surface_left, the closed surface's back_facing and
+// entered_through; the voxel centre affine in its codes). The kernel evaluates the same
+// expressions in the same order, Eigen's three-term sums as x + (y + z), without fused
+// multiply-adds: the traversal's images did not change.
 
+#include "common/footprint/point_weight.h"
 #include "common/math/math.h"
 #include "common/math/quantization.h"
+#include "trace/cone/closed_surfaces.h"
 #include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_ray.h"
 
@@ -36,23 +39,21 @@ struct PointLanesInput {
     Vec3f v = Vec3f::UnitY();
     float spacing = 0.0f;           ///< h: an offset code's step is h/127.
     Mat2f inverse = Mat2f::Zero();  ///< G⁻¹ of the point weight's frame.
-    float clip = 0.0f;              ///< The exponent the weight is cut at.
     float t_min = 0.0f;             ///< The look's depths.
     float t_max = 0.0f;
-    /// The back-face test of a closed surface seen from outside (`outward` its side), with the
-    /// cone's starting radius as margin; off when `back_faces` is false.
-    bool back_faces = false;
-    float outward = 0.0f;
+    /// The closed surface whose back faces the cone cannot see (nullptr: none): back_facing with
+    /// the cone's starting radius as margin.
+    const ClosedSurface* closed = nullptr;
     float start = 0.0f;  ///< The cone's starting radius.
-    /// The test of the surface a cone leaves (a cone with t_min > 0): a plane within
-    /// `coplanar` of the apex, or within the start while the point lies within `near` of it.
+    /// The test of the surface a cone leaves (a cone with t_min > 0), is_surface_left with the
+    /// plane within `coplanar` of the apex, or within the start while the point lies within
+    /// `near` of it.
     bool leaving = false;
     float coplanar = 0.0f;
     float near = 0.0f;
-    /// Where a shadow cone may enter the solid of the points' closed surface (`solid_outward`
-    /// its side): a point it enters through is never the surface it leaves.
-    bool may_enter = false;
-    float solid_outward = 0.0f;
+    /// The solid a shadow cone may enter through the points (nullptr: none), by more than
+    /// `entering_cosine`: a point it enters through is never the surface it leaves.
+    const ClosedSurface* entered = nullptr;
     float entering_cosine = 0.0f;
 };
 
@@ -101,32 +102,25 @@ inline std::uint32_t weigh_points_scalar(const ConeVoxelBlock& block, std::uint3
         lanes.ny[k] = normal.y();
         lanes.nz[k] = normal.z();
         lanes.along[k] = along;
-        if (in.back_faces && in.outward * plane > in.start * length) {
+        if (in.closed != nullptr && in.closed->back_facing(plane, length, in.start)) {
             lanes.back_faces |= 1u << k;
             continue;
         }
-        const bool enters = in.may_enter && in.solid_outward * along < -in.entering_cosine * length;
-        if (in.leaving && !enters) {
-            const float distance = std::abs(plane);
-            const float squared = t * t + offset.squaredNorm();
-            if (distance <= in.coplanar || (distance <= in.start && squared <= in.near * in.near)) {
-                continue;
-            }
+        const bool enters =
+            in.entered != nullptr && in.entered->entered_through(along, length, in.entering_cosine);
+        if (in.leaving && !enters &&
+            is_surface_left(std::abs(plane), t * t + offset.squaredNorm(), in.coplanar, in.start,
+                            in.near)) {
+            continue;
         }
         if (!(t >= in.t_min)) {
             continue;
         }
-        const float q = (in.inverse * offset).squaredNorm();
-        if (!(q <= in.clip)) {
+        const float q = point_weight_exponent(in.inverse, offset);
+        if (!(q <= kPointWeightClipExponent)) {
             continue;
         }
-        float depth = t;
-        const float c = std::abs(along);
-        if (c > kPlaneDepthCosine) {
-            const float meets = t + across.dot(offset) / along;
-            const float s = std::min(1.0f, (c - kPlaneDepthCosine) / kPlaneDepthBlend);
-            depth = t + s * s * (3.0f - 2.0f * s) * (meets - t);
-        }
+        const float depth = point_depth({t, offset}, {along, across});
         if (!(depth >= in.t_min) || depth > in.t_max) {
             continue;
         }

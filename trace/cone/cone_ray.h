@@ -98,6 +98,28 @@ struct NormalInRayFrame {
     Vec2f across = Vec2f::Zero();
 };
 
+/// The depth a surfel at `p` with unit normal `n` (in ray coordinates) gives a cone's fragment:
+/// where its tangent plane n·(x − p) = 0 meets the axis, t = p.t + (n_uv·offset)/(n·d), blended
+/// in from the point's own depth over the grazing cosines (kPlaneDepthCosine).
+inline float point_depth(const VertexInRayFrame& p, const NormalInRayFrame& n) {
+    const float c = std::abs(n.along);
+    if (!(c > kPlaneDepthCosine)) {
+        return p.t;
+    }
+    const float plane = p.t + n.across.dot(p.offset) / n.along;
+    const float s = std::min(1.0f, (c - kPlaneDepthCosine) / kPlaneDepthBlend);
+    return p.t + s * s * (3.0f - 2.0f * s) * (plane - p.t);
+}
+
+/// Whether a primitive is the surface a cone leaving it starts on: its plane passes within
+/// `tolerance` of the apex (`plane_distance` from it), or within the cone's starting radius
+/// `start` while the primitive lies within `near` of the apex (`squared_distance`, squared).
+inline bool is_surface_left(float plane_distance, float squared_distance, float tolerance,
+                            float start, float near) {
+    return plane_distance <= tolerance ||
+           (plane_distance <= start && squared_distance <= near * near);
+}
+
 /// The surfel at `p` (its position on the surface, common/hierarchy/hierarchy_file.h
 /// point_position, in ray coordinates) with unit normal `n` and decoded `coverage`, weighed with
 /// `frame` (point_weight_frame of the footprint at the node's depth and its spacing); nothing
@@ -114,14 +136,7 @@ inline std::optional<ConePointHit> intersect_cone_point(const PointWeightFrame& 
     if (!(weight > 0.0f)) {
         return std::nullopt;
     }
-    // The tangent plane n·(x − p) = 0 meets the axis o + t·d at t = p.t + (n_uv·offset)/(n·d).
-    const float c = std::abs(n.along);
-    float t = p.t;
-    if (c > kPlaneDepthCosine) {
-        const float plane = p.t + n.across.dot(p.offset) / n.along;
-        const float s = std::min(1.0f, (c - kPlaneDepthCosine) / kPlaneDepthBlend);
-        t = p.t + s * s * (3.0f - 2.0f * s) * (plane - p.t);
-    }
+    const float t = point_depth(p, n);
     if (!(t >= t_min)) {
         return std::nullopt;
     }

@@ -390,7 +390,8 @@ class Walk {
     static bool enters_solid(const ConeSpace& space, const ClosedSurface* closed,
                              const Vec3f& normal) {
         return !kShade && closed != nullptr &&
-               closed->outward * normal.dot(space.ray.direction) < -kEnteringCosine * normal.norm();
+               closed->entered_through(normal.dot(space.ray.direction), normal.norm(),
+                                       kEnteringCosine);
     }
 
     /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
@@ -407,14 +408,11 @@ class Walk {
     /// The same from the plane's distance to the apex and the primitive's squared distance.
     static bool leaves(const ConeSpace& space, float plane_distance, float squared_distance,
                        float tolerance, float size, bool near_apex = true) {
-        if (plane_distance <= tolerance) {
-            return true;
-        }
         if (!near_apex) {
-            return false;
+            return plane_distance <= tolerance;
         }
-        const float near = size + kNearApex * space.start;
-        return plane_distance <= space.start && squared_distance <= near * near;
+        return is_surface_left(plane_distance, squared_distance, tolerance, space.start,
+                               size + kNearApex * space.start);
     }
 
     /// Whether a cluster's sphere may hold something within `reach` of the axis (a circle
@@ -487,11 +485,9 @@ class Walk {
         in.v = space.ray.cone.v;
         in.spacing = h;
         in.inverse = frame.inverse;
-        in.clip = kPointWeightClipExponent;
         in.t_min = l.t_min;
         in.t_max = l.t_max;
-        in.back_faces = closed != nullptr;
-        in.outward = closed != nullptr ? closed->outward : 0.0f;
+        in.closed = closed;
         in.start = space.start;
         // As for triangles: the surface a cone leaves is not met again by the points that
         // stand for it (a coarse level's points reach far across the start), unless the cone
@@ -499,10 +495,9 @@ class Walk {
         in.leaving = l.t_min > 0.0f;
         in.coplanar = kCoplanarPoint * h;
         in.near = kPointSize * h + kNearApex * space.start;
-        in.may_enter = !kShade && solid != nullptr;
-        in.solid_outward = solid != nullptr ? solid->outward : 0.0f;
+        in.entered = kShade ? nullptr : solid;
         in.entering_cosine = kEnteringCosine;
-        PointLanes lanes;
+        PointLanes& lanes = m_lanes;
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         for (std::uint32_t c = clusters.first_point_cluster;
              c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
@@ -565,9 +560,8 @@ class Walk {
     void point(const ConeSpace& space, std::uint32_t i, const PointWeightFrame& frame,
                const PointLanes& lanes, std::size_t k, float h, float weight) {
         const float along = lanes.along[k];
-        // point_weight, from the exponent the lanes computed.
-        const float hit_weight = frame.scale * decode_coverage8(m_view.core[i].coverage) *
-                                 std::abs(along) * std::exp(-lanes.q[k]);
+        const float hit_weight = point_weight_of_exponent(
+            frame, lanes.q[k], along, decode_coverage8(m_view.core[i].coverage));
         if (!(hit_weight > 0.0f)) {
             return;
         }
@@ -904,6 +898,9 @@ class Walk {
 
     const ConeGeometry& m_geometry;
     const HierarchyView& m_view;
+    /// A cluster's points in lanes (Walk::points): scratch, kept here rather than formed anew
+    /// for every node.
+    PointLanes m_lanes;
     const ConeTraversalOptions& m_options;
     const std::atomic<bool>* m_stop;
     Buffer& m_buffer;

@@ -29,16 +29,23 @@ bool near_axis(const ConeRay& ray, const Vec3f& centre, float radius, float reac
     return t + r >= t_min && t - r <= t_max && a * a + b * b <= within * within;
 }
 
+/// A ray from within 10 of the origin in a random direction (its cone is not read).
+ConeRay random_axis(std::mt19937_64& rng) {
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    ConeRay ray;
+    ray.origin = Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f;
+    ray.direction = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
+    orthonormal_basis(ray.direction, ray.cone.u, ray.cone.v);
+    return ray;
+}
+
 TEST(ConeBoundBlock, EachBitIsThatSpheresTest) {
     std::mt19937_64 rng(23);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
     int set = 0;
     int clear = 0;
     for (int i = 0; i < 5000; ++i) {
-        ConeRay ray;
-        ray.origin = Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f;
-        ray.direction = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
-        orthonormal_basis(ray.direction, ray.cone.u, ray.cone.v);
+        const ConeRay ray = random_axis(rng);
         const float reach = 0.5f * (1.0f + unit(rng));
         const float t_min = 2.0f + unit(rng);
         const float t_max = 10.0f + 5.0f * unit(rng);
@@ -119,12 +126,10 @@ TEST(ConeBoundBlock, ASquareRejectsOnlyWhatTheTriangleCullRejects) {
     int rejected = 0;
     int spheres = 0;
     for (int i = 0; i < 4000; ++i) {
-        ConeRay ray;
-        ray.origin = Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f;
-        ray.direction = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
-        orthonormal_basis(ray.direction, ray.cone.u, ray.cone.v);
+        const ConeRay ray = random_axis(rng);
         const GaussianFrame frame = random_frame(rng);
-        const float reach = 1.25f * 1.98f;
+        // The traversal's per-vertex cull: its margin over the coverage weight's clip radius.
+        const float reach = 1.25f * triangle_clip_radius(TriangleWeight::Coverage);
         const GaussianSquare square = frame.square(reach);
         const float units = 1.0f / frame.inverse_semi_axes.minCoeff();  // the wider semi-axis
         ConeBoundBlock block;

@@ -9,6 +9,7 @@
 
 #include "common/footprint/point_weight.h"
 #include "common/hierarchy/hierarchy_file.h"
+#include "trace/cone/closed_surfaces.h"
 #include "trace/cone/cone_block_simd.h"
 
 #include <gtest/gtest.h>
@@ -23,6 +24,10 @@
 
 namespace mrt {
 namespace {
+
+/// Closed surfaces of either winding, for the back-face and entering tests.
+const ClosedSurface kOutward{{}, {}, 1.0f, 0.0f};
+const ClosedSurface kInward{{}, {}, -1.0f, 0.0f};
 
 /// A random case: a node of spacing h at `origin`, a cone looking at it, and a cluster of points
 /// in it with random codes.
@@ -75,18 +80,16 @@ Case random_case(std::mt19937_64& rng) {
     in.v = c.ray.cone.v;
     in.spacing = c.h;
     in.inverse = c.frame.inverse;
-    in.clip = kPointWeightClipExponent;
     in.t_min = positive(rng) < 0.3f ? 0.0f : 40.0f * c.h * positive(rng);
     in.t_max = positive(rng) < 0.3f ? std::numeric_limits<float>::infinity()
                                     : in.t_min + 60.0f * c.h * positive(rng);
-    in.back_faces = positive(rng) < 0.5f;
-    in.outward = positive(rng) < 0.5f ? 1.0f : -1.0f;
+    const auto either = [&] { return positive(rng) < 0.5f ? &kOutward : &kInward; };
+    in.closed = positive(rng) < 0.5f ? either() : nullptr;
     in.start = positive(rng) < 0.3f ? 0.0f : c.h * positive(rng);
     in.leaving = in.t_min > 0.0f;
     in.coplanar = 0.1f * c.h;
     in.near = 2.0f * c.h + 10.0f * in.start;
-    in.may_enter = positive(rng) < 0.5f;
-    in.solid_outward = positive(rng) < 0.5f ? 1.0f : -1.0f;
+    in.entered = positive(rng) < 0.5f ? either() : nullptr;
     in.entering_cosine = 0.1f;
     return c;
 }
@@ -170,11 +173,12 @@ Independent independent(const Case& c, std::size_t k) {
         return x > bound;
     };
     const PointLanesInput& in = c.in;
-    if (in.back_faces && decided(in.outward * plane, in.start, scale)) {
+    if (in.closed != nullptr && decided(in.closed->outward * plane, in.start, scale)) {
         return r;
     }
     const double along = normal.cast<double>().dot(c.ray.direction.cast<double>());
-    const bool enters = in.may_enter && decided(-in.entering_cosine, in.solid_outward * along, 1.0);
+    const bool enters =
+        in.entered != nullptr && decided(-in.entering_cosine, in.entered->outward * along, 1.0);
     if (in.leaving && !enters) {
         const double distance = std::abs(plane);
         if (!decided(distance, in.coplanar, scale) ||
@@ -187,7 +191,7 @@ Independent independent(const Case& c, std::size_t k) {
     const auto hit = intersect_cone_point(c.ray, c.frame, position, normal, 1.0f, in.t_min);
     const VertexInRayFrame p = c.ray.frame_of(position);
     const double q = (c.frame.inverse * p.offset).squaredNorm();
-    decided(q, in.clip, 10.0 * (1.0 + q));
+    decided(q, kPointWeightClipExponent, 10.0 * (1.0 + q));
     decided(p.t, in.t_min, scale);
     if (!hit) {
         return r;
