@@ -3,7 +3,8 @@
 // allows) against the Highway kernels the traversal calls (dispatched at run time to the best
 // instruction set the CPU has; the label names it). Each iteration tests one block, so the
 // figures are nanoseconds per block, dispatch included: a cluster's 16 triangle bounding spheres
-// against the cone's reach, a cluster's 16 point voxels against the clip, a node's 8 children
+// against the cone's reach (and the same spheres as a node's clusters read from the arrays of all
+// of them), a cluster's 16 point voxels against the clip, a node's 8 children
 // against the cone's circle, and the points of a cluster the voxel test let through placed,
 // tested and given their exponents (weigh_points). 512 different random blocks (a few hundred
 // kilobytes, in the second-level cache as a node's blocks are when the traversal reads them) are
@@ -16,6 +17,7 @@
 #include "trace/cone/cone_block_simd.h"
 #include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_bounds.h"
+#include "trace/cone/cone_cluster_spheres.h"
 #include "trace/cone/cone_point_lanes.h"
 #include "trace/cone/cone_ray.h"
 
@@ -259,6 +261,48 @@ void BM_SpheresNearAxisSimd(benchmark::State& state) {
     });
 }
 BENCHMARK(BM_SpheresNearAxisSimd);
+
+/// The sphere cases' spheres as a node's clusters (clusters_near_axis): case i's at 16·i.
+const ConeClusterSpheres& cluster_spheres() {
+    struct Sphere {
+        std::array<float, 3> centre;
+        float radius;
+    };
+    static const ConeClusterSpheres spheres = [] {
+        std::vector<Sphere> all;
+        for (const SphereCase& c : sphere_cases()) {
+            for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+                all.push_back({{c.block.x[k], c.block.y[k], c.block.z[k]}, c.block.radius[k]});
+            }
+        }
+        return ConeClusterSpheres(all);
+    }();
+    return spheres;
+}
+
+/// The index of a sphere case, for the clusters' offset in cluster_spheres().
+std::uint32_t case_index(const SphereCase& c) {
+    return static_cast<std::uint32_t>(&c - sphere_cases().data());
+}
+
+void BM_ClustersNearAxisScalar(benchmark::State& state) {
+    const ConeClusterSpheres& spheres = cluster_spheres();
+    run_blocks(state, sphere_cases(), [&](const SphereCase& c) {
+        return clusters_near_axis_scalar(spheres, kConeClusterSize * case_index(c), c.count, c.ray,
+                                         c.reach, 0.0f, 100.0f);
+    });
+}
+BENCHMARK(BM_ClustersNearAxisScalar);
+
+void BM_ClustersNearAxisSimd(benchmark::State& state) {
+    state.SetLabel(block_kernel_target());
+    const ConeClusterSpheres& spheres = cluster_spheres();
+    run_blocks(state, sphere_cases(), [&](const SphereCase& c) {
+        return clusters_near_axis(spheres, kConeClusterSize * case_index(c), c.count, c.ray,
+                                  c.reach, 0.0f, 100.0f);
+    });
+}
+BENCHMARK(BM_ClustersNearAxisSimd);
 
 void BM_VoxelsWithinClipScalar(benchmark::State& state) {
     run_blocks(state, voxel_cases(), [](const VoxelCase& c) {

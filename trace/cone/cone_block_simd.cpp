@@ -16,6 +16,7 @@
 #include "common/footprint/point_weight.h"
 #include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_bounds.h"
+#include "trace/cone/cone_cluster_spheres.h"
 #include "trace/cone/cone_point_lanes.h"
 #include "trace/cone/cone_ray.h"
 
@@ -352,6 +353,39 @@ std::uint32_t weigh_points_simd(const ConeVoxelBlock& block, std::uint32_t candi
     return hits & candidates;
 }
 
+/// clusters_near_axis_scalar, a vector of spheres at a time: sphere_may_hold's ConeRay::frame_of
+/// sums its dot products as Eigen does, x + (y + z).
+std::uint32_t clusters_near_axis_simd(const ConeClusterSpheres& spheres, std::uint32_t first,
+                                      std::uint32_t count, const ConeRay& ray, float reach,
+                                      float t_min, float t_max) {
+    const hn::CappedTag<float, kConeClusterSize> d;
+    const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
+    const std::uint32_t used = std::min(count, kConeClusterSize);
+    const RayLanes<decltype(d)> ray_lanes(d, ray);
+    const auto& [ox, oy, oz, dx, dy, dz, ux, uy, uz, vx, vy, vz] = ray_lanes.lanes;
+    const auto reach_v = hn::Set(d, reach);
+    const auto t_min_v = hn::Set(d, t_min);
+    const auto t_max_v = hn::Set(d, t_max);
+    std::uint32_t mask = 0;
+    for (std::uint32_t k = 0; k < used; k += lanes) {
+        const std::size_t i = first + k;
+        const auto px = hn::LoadU(d, spheres.x.data() + i) - ox;
+        const auto py = hn::LoadU(d, spheres.y.data() + i) - oy;
+        const auto pz = hn::LoadU(d, spheres.z.data() + i) - oz;
+        const auto t = px * dx + (py * dy + pz * dz);
+        const auto a = px * ux + (py * uy + pz * uz);
+        const auto b = px * vx + (py * vy + pz * vz);
+        const auto r = hn::LoadU(d, spheres.radius.data() + i);
+        const auto within = reach_v + r;
+        const auto before = t + r < t_min_v;
+        const auto after = t - r > t_max_v;
+        const auto beside = a * a + b * b > within * within;
+        // Comparisons with a NaN are false: a damaged sphere is never before, after or beside.
+        mask |= lane_bits(d, hn::Not(hn::Or(hn::Or(before, after), beside))) << k;
+    }
+    return mask & bits_below(used);
+}
+
 }  // namespace
 }  // namespace HWY_NAMESPACE
 }  // namespace mrt
@@ -364,6 +398,7 @@ HWY_EXPORT(spheres_near_axis_simd);
 HWY_EXPORT(voxels_within_clip_simd);
 HWY_EXPORT(children_near_cone_simd);
 HWY_EXPORT(weigh_points_simd);
+HWY_EXPORT(clusters_near_axis_simd);
 HWY_EXPORT(target_name);
 
 std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_t count,
@@ -388,6 +423,13 @@ std::uint32_t children_near_cone(const ConeChildBlock& block, std::uint32_t coun
 std::uint32_t weigh_points(const ConeVoxelBlock& block, std::uint32_t candidates,
                            const PointLanesInput& in, PointLanes& lanes) {
     return HWY_DYNAMIC_DISPATCH(weigh_points_simd)(block, candidates, in, lanes);
+}
+
+std::uint32_t clusters_near_axis(const ConeClusterSpheres& spheres, std::uint32_t first,
+                                 std::uint32_t count, const ConeRay& ray, float reach, float t_min,
+                                 float t_max) {
+    return HWY_DYNAMIC_DISPATCH(clusters_near_axis_simd)(spheres, first, count, ray, reach, t_min,
+                                                         t_max);
 }
 
 const char* block_kernel_target() {

@@ -415,25 +415,6 @@ class Walk {
                                size + kNearApex * space.start);
     }
 
-    /// Whether a cluster's sphere may hold something within `reach` of the axis (a circle
-    /// around the clip ellipse) between the look's depths.
-    /// `centre` receives the sphere's centre in the ray's frame.
-    template <class Sphere>
-    static bool may_hold(const ConeSpace& space, const Sphere& sphere, const Look& l, float reach,
-                         VertexInRayFrame& centre) {
-        centre = space.ray.frame_of(to_vec(sphere.centre));
-        if (centre.t + sphere.radius < l.t_min || centre.t - sphere.radius > l.t_max) {
-            return false;
-        }
-        const float r = reach + sphere.radius;
-        return !(centre.offset.squaredNorm() > r * r);
-    }
-    template <class Sphere>
-    static bool may_hold(const ConeSpace& space, const Sphere& sphere, const Look& l, float reach) {
-        VertexInRayFrame centre;
-        return may_hold(space, sphere, l, reach, centre);
-    }
-
     void points(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
         const HierarchyNode& node = m_view.nodes[index];
         if (!(weight > 0.0f)) {
@@ -499,36 +480,45 @@ class Walk {
         in.entering_cosine = kEnteringCosine;
         PointLanes& lanes = m_lanes;
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
-        for (std::uint32_t c = clusters.first_point_cluster;
-             c < clusters.first_point_cluster + clusters.point_cluster_count; ++c) {
-            const ConeCluster& cluster = m_geometry.point_cluster(c);
-            VertexInRayFrame centre;
-            if (!may_hold(space, cluster, l, clip_reach, centre)) {
-                continue;
-            }
-            const float reach = voxels.gaussian.clip + cluster.radius * stretch;
-            if (!((frame.inverse * centre.offset).squaredNorm() <= reach * reach)) {
-                continue;
-            }
-            if (skips_leaving &&
-                cluster_leaves(m_geometry.point_cluster_plane(c), to_vec(cluster.centre),
-                               cluster.radius, space.ray.origin, leaving, leaving_start,
-                               leaving_near)) {
-                continue;
-            }
-            m_stats.points_tested += cluster.count;
-            const ConeVoxelBlock& block = m_geometry.point_voxels(c);
-            const std::uint32_t near = voxels_within_clip(block, cluster.count, voxels.gaussian);
-            if (near == 0) {
-                continue;
-            }
-            const std::uint32_t hits = weigh_points(block, near, in, lanes);
-            m_stats.back_faces_culled +=
-                static_cast<std::uint64_t>(std::popcount(lanes.back_faces));
-            for (std::uint32_t bits = hits; bits != 0; bits &= bits - 1) {
-                const auto k = static_cast<std::size_t>(std::countr_zero(bits));
-                point(space, m_geometry.point_order(cluster.first + static_cast<std::uint32_t>(k)),
-                      frame, lanes, k, h, weight);
+        const std::uint32_t end = clusters.first_point_cluster + clusters.point_cluster_count;
+        for (std::uint32_t first = clusters.first_point_cluster; first < end;
+             first += kConeClusterSize) {
+            // The clusters whose spheres come within the clip's circle, a block at a time.
+            for (std::uint32_t reached =
+                     clusters_near_axis(m_geometry.point_cluster_spheres(), first,
+                                        std::min(end - first, kConeClusterSize), space.ray,
+                                        clip_reach, l.t_min, l.t_max);
+                 reached != 0; reached &= reached - 1) {
+                const std::uint32_t c =
+                    first + static_cast<std::uint32_t>(std::countr_zero(reached));
+                const ConeCluster& cluster = m_geometry.point_cluster(c);
+                const VertexInRayFrame centre = space.ray.frame_of(to_vec(cluster.centre));
+                const float reach = voxels.gaussian.clip + cluster.radius * stretch;
+                if (!((frame.inverse * centre.offset).squaredNorm() <= reach * reach)) {
+                    continue;
+                }
+                if (skips_leaving &&
+                    cluster_leaves(m_geometry.point_cluster_plane(c), to_vec(cluster.centre),
+                                   cluster.radius, space.ray.origin, leaving, leaving_start,
+                                   leaving_near)) {
+                    continue;
+                }
+                m_stats.points_tested += cluster.count;
+                const ConeVoxelBlock& block = m_geometry.point_voxels(c);
+                const std::uint32_t near =
+                    voxels_within_clip(block, cluster.count, voxels.gaussian);
+                if (near == 0) {
+                    continue;
+                }
+                const std::uint32_t hits = weigh_points(block, near, in, lanes);
+                m_stats.back_faces_culled +=
+                    static_cast<std::uint64_t>(std::popcount(lanes.back_faces));
+                for (std::uint32_t bits = hits; bits != 0; bits &= bits - 1) {
+                    const auto k = static_cast<std::size_t>(std::countr_zero(bits));
+                    point(space,
+                          m_geometry.point_order(cluster.first + static_cast<std::uint32_t>(k)),
+                          frame, lanes, k, h, weight);
+                }
             }
         }
     }
@@ -640,7 +630,7 @@ class Walk {
             !(2.0f * l.sphere.radius * growth <= kNodeFootprintVariation * l.footprint.norm());
         // The node's one frame, or where the footprint varies across the node one per cluster
         // (below).
-        GaussianFrame frame = varies ? GaussianFrame{} : GaussianFrame::of_ellipse(l.ellipse);
+        const GaussianFrame frame = varies ? GaussianFrame{} : GaussianFrame::of_ellipse(l.ellipse);
         const bool per_vertex = !m_options.node_frames;
         // Where the weight can reach, in Gaussian units (cone_triangle.cpp's box test) times
         // the footprint's largest semi-axis; with per-vertex frames the largest over the
@@ -654,46 +644,68 @@ class Walk {
                                                space.bounds.frobenius_squared(far)));
         }
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
-        for (std::uint32_t c = clusters.first_triangle_cluster;
-             c < clusters.first_triangle_cluster + clusters.triangle_cluster_count; ++c) {
-            const ConeCluster& cluster = m_geometry.triangle_cluster(c);
-            VertexInRayFrame centre;
-            if (!may_hold(space, cluster, l, reach, centre)) {
-                continue;
+        const std::uint32_t end = clusters.first_triangle_cluster + clusters.triangle_cluster_count;
+        std::array<ClusterCull, kConeClusterSize> batch;
+        for (std::uint32_t first = clusters.first_triangle_cluster; first < end;
+             first += kConeClusterSize) {
+            // The clusters the cone may reach, a block at a time, and then their frames: the
+            // decompositions of a block are independent, so their chains of square roots and
+            // divisions overlap instead of each stalling the cull that reads it.
+            std::size_t count = 0;
+            for (std::uint32_t reached = clusters_near_axis(
+                     m_geometry.triangle_cluster_spheres(), first,
+                     std::min(end - first, kConeClusterSize), space.ray, reach, l.t_min, l.t_max);
+                 reached != 0; reached &= reached - 1) {
+                const std::uint32_t c =
+                    first + static_cast<std::uint32_t>(std::countr_zero(reached));
+                const float t = space.ray.frame_of(to_vec(m_geometry.triangle_cluster(c).centre)).t;
+                batch[count++] = {c, std::clamp(t, l.t_min, l.t_max), frame, radius};
             }
-            float cluster_radius = radius;
             if (varies) {
                 // The node's one footprint would be wrong across it: one per cluster instead
                 // (a cluster is a few triangles across).
-                const float t = std::clamp(centre.t, l.t_min, l.t_max);
-                const Mat2f footprint = cone.at(t);
-                SymmetricEigen2 ellipse = ellipse_at(space, t, footprint);
-                FootprintCone::clamp_decomposed(footprint, m_options.max_anisotropy, ellipse);
-                frame = GaussianFrame::of_ellipse(ellipse);
-                cluster_radius = std::sqrt(ellipse.major);
+                for (std::size_t i = 0; i < count; ++i) {
+                    const Mat2f footprint = cone.at(batch[i].t);
+                    SymmetricEigen2 ellipse = ellipse_at(space, batch[i].t, footprint);
+                    FootprintCone::clamp_decomposed(footprint, m_options.max_anisotropy, ellipse);
+                    batch[i].frame = GaussianFrame::of_ellipse(ellipse);
+                    batch[i].radius = std::sqrt(ellipse.major);
+                }
             }
-            // The circle around the cull's ellipse (of the frame the triangle loop culls with),
-            // and the per-vertex cull's square in that frame: half the triangles a cluster let
-            // through were rejected by the square after their vertices had been gathered and
-            // projected.
-            const float triangle_reach = (per_vertex ? kCullMargin : 1.0f) * units * cluster_radius;
-            const GaussianSquare square =
-                per_vertex && frame.inverse_semi_axes.y() >
-                                  kSquareAnisotropy * frame.inverse_semi_axes.x()
-                    ? frame.square(kCullMargin * units)
-                    : GaussianSquare{};
-            for (std::uint32_t near =
-                     spheres_near_axis(m_geometry.triangle_bounds(c), cluster.count, space.ray,
-                                       triangle_reach, l.t_min, l.t_max, square);
-                 near != 0; near &= near - 1) {
-                const std::uint32_t j =
-                    cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));
-                triangle(space, m_geometry.triangle_order(j), l, per_vertex, frame, cluster_radius,
-                         weight);
+            for (std::size_t i = 0; i < count; ++i) {
+                const ClusterCull& cull = batch[i];
+                const ConeCluster& cluster = m_geometry.triangle_cluster(cull.cluster);
+                // The circle around the cull's ellipse (of the frame the triangle loop culls
+                // with), and the per-vertex cull's square in that frame: half the triangles a
+                // cluster let through were rejected by the square after their vertices had been
+                // gathered and projected.
+                const float triangle_reach =
+                    (per_vertex ? kCullMargin : 1.0f) * units * cull.radius;
+                const GaussianSquare square =
+                    per_vertex && cull.frame.inverse_semi_axes.y() >
+                                      kSquareAnisotropy * cull.frame.inverse_semi_axes.x()
+                        ? cull.frame.square(kCullMargin * units)
+                        : GaussianSquare{};
+                for (std::uint32_t near =
+                         spheres_near_axis(m_geometry.triangle_bounds(cull.cluster), cluster.count,
+                                           space.ray, triangle_reach, l.t_min, l.t_max, square);
+                     near != 0; near &= near - 1) {
+                    const std::uint32_t j =
+                        cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));
+                    triangle(space, m_geometry.triangle_order(j), l, per_vertex, cull.frame,
+                             cull.radius, weight);
+                }
             }
         }
     }
 
+    /// A triangle cluster the cone may reach, with the frame its triangles are culled in.
+    struct ClusterCull {
+        std::uint32_t cluster = 0;
+        float t = 0.0f;  ///< The depth of its centre, within the look's.
+        GaussianFrame frame;
+        float radius = 0.0f;  ///< The frame's largest semi-axis.
+    };
     void triangle(const ConeSpace& space, std::uint32_t triangle, const Look& l, bool per_vertex,
                   const GaussianFrame& frame, float radius, float weight) {
         {
@@ -1106,6 +1118,8 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                           block.radius[i] = padded_bound(extent(t));
                       });
     }
+    m_point_cluster_spheres = ConeClusterSpheres(m_point_clusters);
+    m_triangle_cluster_spheres = ConeClusterSpheres(m_triangle_clusters);
 }
 
 ConeTraversal::ConeTraversal(const ConeGeometry& geometry, const ConeTraversalOptions& options,

@@ -37,6 +37,7 @@
 #include "trace/cone/closed_surfaces.h"
 #include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_cluster_plane.h"
+#include "trace/cone/cone_cluster_spheres.h"
 #include "trace/cone/cone_instance_bound.h"
 #include "trace/cone/cone_ray.h"
 #include "trace/cone/cone_surface.h"
@@ -182,6 +183,11 @@ class ConeGeometry {
     /// The voxel codes and offsets of point cluster i's points, in their point_order().
     const ConeVoxelBlock& point_voxels(std::uint32_t i) const { return m_point_voxels[i]; }
     const ConeCluster& triangle_cluster(std::uint32_t i) const { return m_triangle_clusters[i]; }
+    /// The point and the triangle clusters' bounding spheres, a node's tested together.
+    const ConeClusterSpheres& point_cluster_spheres() const { return m_point_cluster_spheres; }
+    const ConeClusterSpheres& triangle_cluster_spheres() const {
+        return m_triangle_cluster_spheres;
+    }
     /// Point indices (into the file's point arrays), each node's a permutation of its range.
     std::uint32_t point_order(std::uint32_t i) const { return m_point_order[i]; }
     /// Triangle indices (into 'TRIS'), each node's its kept triangles permuted.
@@ -210,6 +216,8 @@ class ConeGeometry {
     std::vector<std::uint32_t> m_point_order;
     std::vector<std::uint32_t> m_triangle_order;
     std::vector<ConeBoundBlock> m_triangle_bounds;
+    ConeClusterSpheres m_point_cluster_spheres;
+    ConeClusterSpheres m_triangle_cluster_spheres;
 };
 
 class ConeTraversal {

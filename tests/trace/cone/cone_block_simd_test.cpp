@@ -13,6 +13,7 @@
 #include "common/footprint/point_weight.h"
 #include "trace/cone/cone_bound_block.h"
 #include "trace/cone/cone_bounds.h"
+#include "trace/cone/cone_cluster_spheres.h"
 #include "trace/cone/cone_ray.h"
 #include "trace/cone/cone_triangle.h"
 
@@ -27,6 +28,7 @@
 #include <initializer_list>
 #include <limits>
 #include <random>
+#include <vector>
 
 namespace mrt {
 namespace {
@@ -627,6 +629,111 @@ TEST_P(ConeBlockKernels, DamagedChildrenAnsweredAsScalar) {
     ConeRay damaged_ray = ray;
     damaged_ray.direction.z() = kNaN;
     agree(damaged_ray, test, 0.0f, 10.0f);
+}
+
+/// Bounding spheres around random rays' axes, near and on the test's boundaries: `n` of them in
+/// the fields a ConeClusterSpheres is built from.
+struct RandomSphere {
+    std::array<float, 3> centre;
+    float radius;
+};
+
+TEST_P(ConeBlockKernels, ClustersNearAxisAgreeWithScalar) {
+    // A node's clusters are read from arrays of all of them, at any offset, the last block
+    // short: every count from 0 to a full block at the arrays' end (where only the padding
+    // follows) and in their middle.
+    std::mt19937_64 rng(53);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    Agreement agreement;
+    for (int i = 0; i < 4000; ++i) {
+        const ConeRay ray = random_ray(rng);
+        const float scale = std::pow(10.0f, 2.0f * unit(rng));
+        const float reach = scale * 0.5f * (1.0f + unit(rng));
+        const float t_min = scale * (2.0f + unit(rng));
+        const float t_max = scale * (10.0f + 5.0f * unit(rng));
+        std::vector<RandomSphere> spheres(40);
+        for (RandomSphere& sphere : spheres) {
+            const float radius = random_radius(rng, 0.3f * scale);
+            const bool at_depth_limit = unit(rng) > 0.6f;
+            const float t = at_depth_limit ? (unit(rng) < 0.0f ? t_min - radius : t_max + radius) *
+                                                 random_reach_factor(rng)
+                                           : scale * 8.0f * (1.0f + unit(rng));
+            const Vec2f across = Vec2f(unit(rng), unit(rng)).normalized() * (reach + radius) *
+                                 random_reach_factor(rng);
+            const Vec3f centre =
+                ray.origin + t * ray.direction + across.x() * ray.cone.u + across.y() * ray.cone.v;
+            sphere = {{centre.x(), centre.y(), centre.z()}, radius};
+        }
+        const ConeClusterSpheres block(spheres);
+        ASSERT_EQ(block.size(), spheres.size());
+        const std::uint32_t count = static_cast<std::uint32_t>(i) % (kConeClusterSize + 1);
+        for (const std::uint32_t first :
+             {0u, 3u, static_cast<std::uint32_t>(spheres.size()) - count}) {
+            const std::uint32_t simd =
+                clusters_near_axis(block, first, count, ray, reach, t_min, t_max);
+            const std::uint32_t scalar =
+                clusters_near_axis_scalar(block, first, count, ray, reach, t_min, t_max);
+            ASSERT_EQ(simd & unused_bits(count, kConeClusterSize), 0u) << "case " << i;
+            for (std::uint32_t k = 0; k < count; ++k) {
+                const RandomSphere& sphere = spheres[first + k];
+                const Vec3f p =
+                    Vec3f(sphere.centre[0], sphere.centre[1], sphere.centre[2]) - ray.origin;
+                const double t = p.dot(ray.direction);
+                const double a = p.dot(ray.cone.u);
+                const double b = p.dot(ray.cone.v);
+                const double r = sphere.radius;
+                const double within = reach + r;
+                const double depth_scale = p.norm() + r + std::abs(t_min) + std::abs(t_max);
+                const bool is_decided = decided({{t + r, t_min, depth_scale, false},
+                                                 {t - r, t_max, depth_scale, true},
+                                                 beyond(a * a + b * b, within, p.norm())});
+                // The reference is the traversal's own test of one sphere, and the double-precision
+                // answer where rounding cannot decide it.
+                if (is_decided) {
+                    const bool exact =
+                        !(t + r < t_min || t - r > t_max || a * a + b * b > within * within);
+                    ASSERT_EQ(((scalar >> k) & 1u) != 0, exact) << "case " << i << " sphere " << k;
+                }
+                ASSERT_TRUE(
+                    agreement.add(((simd >> k) & 1u) != 0, ((scalar >> k) & 1u) != 0, is_decided))
+                    << "case " << i << " sphere " << k;
+            }
+        }
+    }
+    agreement.expect_consistent();
+}
+
+TEST_P(ConeBlockKernels, ClustersNearAxisKeepDamagedSpheresAndNoPadding) {
+    ConeRay ray;
+    ray.cone.incr_dev = Mat2f::Identity() * 0.01f;
+    // On the axis, beside it, damaged, and past the end (padding).
+    const std::vector<RandomSphere> spheres{{{0.0f, 0.0f, 5.0f}, 0.1f},
+                                            {{50.0f, 0.0f, 5.0f}, 0.1f},
+                                            {{kNaN, 0.0f, 5.0f}, 0.1f},
+                                            {{0.0f, 0.0f, 5.0f}, kNaN},
+                                            {{0.0f, kInf, 5.0f}, 0.1f}};
+    const ConeClusterSpheres block(spheres);
+    // Only the sphere beside the axis is rejected: a NaN passes every test, and so does an
+    // infinite coordinate (times the ray's zero components it is NaN).
+    const std::uint32_t expected = 0b11101u;
+    for (std::uint32_t count = 0; count <= kConeClusterSize; ++count) {
+        const std::uint32_t used = std::min<std::uint32_t>(count, 5);
+        const std::uint32_t mask = expected & ((1u << used) - 1u);
+        EXPECT_EQ(clusters_near_axis(block, 0, used, ray, 1.0f, 0.0f, 10.0f), mask) << count;
+        EXPECT_EQ(clusters_near_axis_scalar(block, 0, used, ray, 1.0f, 0.0f, 10.0f), mask) << count;
+    }
+    // A block read from the last sphere runs into the padding, which no finite depth range
+    // holds (and whose bits are cleared besides).
+    for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+        EXPECT_EQ(block.radius[block.size() + k], -kInf);
+    }
+    EXPECT_EQ(clusters_near_axis(block, static_cast<std::uint32_t>(block.size()), kConeClusterSize,
+                                 ray, 1e30f, -1e30f, 1e30f),
+              0u);
+    EXPECT_EQ(clusters_near_axis(block, 4, 1, ray, 1e30f, -1e30f, 1e30f), 1u);
+    const ConeClusterSpheres none;
+    EXPECT_EQ(none.size(), 0u);
+    EXPECT_EQ(clusters_near_axis(none, 0, 0, ray, 1e30f, -kInf, kInf), 0u);
 }
 
 }  // namespace
