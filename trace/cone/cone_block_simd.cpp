@@ -69,6 +69,28 @@ struct RayLanes {
                 hn::Set(d, ray.cone.v.y()),    hn::Set(d, ray.cone.v.z())} {}
 };
 
+/// A cone's reach about its axis and its depth range, in every lane.
+template <class D>
+struct ReachLanes {
+    hn::Vec<D> reach;
+    hn::Vec<D> t_min;
+    hn::Vec<D> t_max;
+
+    ReachLanes(D d, float reach_, float t_min_, float t_max_)
+        : reach(hn::Set(d, reach_)), t_min(hn::Set(d, t_min_)), t_max(hn::Set(d, t_max_)) {}
+
+    /// The spheres (centres at depth t and offsets a, b from the axis, radii r) that may hold
+    /// something within reach and the depths. Comparisons with a NaN are false: a damaged
+    /// sphere is never before, after or beside.
+    hn::Mask<D> may_hold(hn::Vec<D> t, hn::Vec<D> a, hn::Vec<D> b, hn::Vec<D> r) const {
+        const auto within = reach + r;
+        const auto before = t + r < t_min;
+        const auto after = t - r > t_max;
+        const auto beside = a * a + b * b > within * within;
+        return hn::Not(hn::Or(hn::Or(before, after), beside));
+    }
+};
+
 /// spheres_near_axis_scalar, a vector of spheres at a time.
 std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t count,
                                      const ConeRay& ray, float reach, float t_min, float t_max,
@@ -78,9 +100,7 @@ std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t 
     const std::uint32_t used = std::min(count, kConeClusterSize);
     const RayLanes<decltype(d)> ray_lanes(d, ray);
     const auto& [ox, oy, oz, dx, dy, dz, ux, uy, uz, vx, vy, vz] = ray_lanes.lanes;
-    const auto reach_v = hn::Set(d, reach);
-    const auto t_min_v = hn::Set(d, t_min);
-    const auto t_max_v = hn::Set(d, t_max);
+    const ReachLanes<decltype(d)> range(d, reach, t_min, t_max);
     const auto m00 = hn::Set(d, square.m00);
     const auto m01 = hn::Set(d, square.m01);
     const auto m11 = hn::Set(d, square.m11);
@@ -98,13 +118,8 @@ std::uint32_t spheres_near_axis_simd(const ConeBoundBlock& block, std::uint32_t 
         const auto a = px * ux + py * uy + pz * uz;
         const auto b = px * vx + py * vy + pz * vz;
         const auto r = hn::Load(d, block.radius.data() + k);
-        const auto within = reach_v + r;
-        const auto before = t + r < t_min_v;
-        const auto after = t - r > t_max_v;
-        const auto beside = a * a + b * b > within * within;
-        // Comparisons with a NaN are false: a damaged sphere is never before, after, beside or
-        // outside the square.
-        auto inside = hn::Not(hn::Or(hn::Or(before, after), beside));
+        // A damaged sphere is never outside the square either (comparisons with a NaN).
+        auto inside = range.may_hold(t, a, b, r);
         if (squared) {
             const auto gx = m00 * a + m01 * b;
             const auto gy = m01 * a + m11 * b;
@@ -363,9 +378,7 @@ std::uint32_t clusters_near_axis_simd(const ConeClusterSpheres& spheres, std::ui
     const std::uint32_t used = std::min(count, kConeClusterSize);
     const RayLanes<decltype(d)> ray_lanes(d, ray);
     const auto& [ox, oy, oz, dx, dy, dz, ux, uy, uz, vx, vy, vz] = ray_lanes.lanes;
-    const auto reach_v = hn::Set(d, reach);
-    const auto t_min_v = hn::Set(d, t_min);
-    const auto t_max_v = hn::Set(d, t_max);
+    const ReachLanes<decltype(d)> range(d, reach, t_min, t_max);
     std::uint32_t mask = 0;
     for (std::uint32_t k = 0; k < used; k += lanes) {
         const std::size_t i = first + k;
@@ -376,12 +389,7 @@ std::uint32_t clusters_near_axis_simd(const ConeClusterSpheres& spheres, std::ui
         const auto a = px * ux + (py * uy + pz * uz);
         const auto b = px * vx + (py * vy + pz * vz);
         const auto r = hn::LoadU(d, spheres.radius.data() + i);
-        const auto within = reach_v + r;
-        const auto before = t + r < t_min_v;
-        const auto after = t - r > t_max_v;
-        const auto beside = a * a + b * b > within * within;
-        // Comparisons with a NaN are false: a damaged sphere is never before, after or beside.
-        mask |= lane_bits(d, hn::Not(hn::Or(hn::Or(before, after), beside))) << k;
+        mask |= lane_bits(d, range.may_hold(t, a, b, r)) << k;
     }
     return mask & bits_below(used);
 }

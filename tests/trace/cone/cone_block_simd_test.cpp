@@ -197,33 +197,62 @@ TEST_P(ConeBlockKernels, DispatchRunsTheTargetUnderTest) {
     EXPECT_STREQ(block_kernel_target(), hwy::TargetName(GetParam()));
 }
 
+/// A cone's reach about its axis and its depth range, on a random scale from 1e-2 to 1e2.
+struct RandomReach {
+    float scale;
+    float reach;
+    float t_min;
+    float t_max;
+
+    explicit RandomReach(std::mt19937_64& rng) {
+        std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+        scale = std::pow(10.0f, 2.0f * unit(rng));
+        reach = scale * 0.5f * (1.0f + unit(rng));
+        t_min = scale * (2.0f + unit(rng));
+        t_max = scale * (10.0f + 5.0f * unit(rng));
+    }
+};
+
+struct RandomSphere {
+    std::array<float, 3> centre;
+    float radius;
+};
+
+/// A sphere on or near a boundary of `range` about `ray`: its depth at one of the depth limits
+/// four times in ten, otherwise its side at the reach, each within a random factor of it.
+RandomSphere random_sphere_at_reach(std::mt19937_64& rng, const ConeRay& ray,
+                                    const RandomReach& range) {
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    const float radius = random_radius(rng, 0.3f * range.scale);
+    const bool at_depth_limit = unit(rng) > 0.6f;
+    const float t = at_depth_limit
+                        ? (unit(rng) < 0.0f ? range.t_min - radius : range.t_max + radius) *
+                              random_reach_factor(rng)
+                        : range.scale * 8.0f * (1.0f + unit(rng));
+    const Vec2f across = Vec2f(unit(rng), unit(rng)).normalized() * (range.reach + radius) *
+                         random_reach_factor(rng);
+    const Vec3f centre =
+        ray.origin + t * ray.direction + across.x() * ray.cone.u + across.y() * ray.cone.v;
+    return {{centre.x(), centre.y(), centre.z()}, radius};
+}
+
 TEST_P(ConeBlockKernels, SpheresNearAxisAgreeWithScalar) {
     std::mt19937_64 rng(41);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
     Agreement agreement;
     for (int i = 0; i < 20000; ++i) {
         const ConeRay ray = random_ray(rng);
-        const float scale = std::pow(10.0f, 2.0f * unit(rng));
-        const float reach = scale * 0.5f * (1.0f + unit(rng));
-        const float t_min = scale * (2.0f + unit(rng));
-        const float t_max = scale * (10.0f + 5.0f * unit(rng));
+        const RandomReach range(rng);
+        const auto [scale, reach, t_min, t_max] = range;
         const std::uint32_t count = static_cast<std::uint32_t>(i) % (kConeClusterSize + 1);
         // Every slot holds a sphere, so that the bits of those past `count` would be set.
         ConeBoundBlock block;
         for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
-            const float radius = random_radius(rng, 0.3f * scale);
-            const bool at_depth_limit = unit(rng) > 0.6f;
-            const float t = at_depth_limit ? (unit(rng) < 0.0f ? t_min - radius : t_max + radius) *
-                                                 random_reach_factor(rng)
-                                           : scale * 8.0f * (1.0f + unit(rng));
-            const Vec2f across = Vec2f(unit(rng), unit(rng)).normalized() * (reach + radius) *
-                                 random_reach_factor(rng);
-            const Vec3f centre =
-                ray.origin + t * ray.direction + across.x() * ray.cone.u + across.y() * ray.cone.v;
-            block.x[k] = centre.x();
-            block.y[k] = centre.y();
-            block.z[k] = centre.z();
-            block.radius[k] = radius;
+            const RandomSphere sphere = random_sphere_at_reach(rng, ray, range);
+            block.x[k] = sphere.centre[0];
+            block.y[k] = sphere.centre[1];
+            block.z[k] = sphere.centre[2];
+            block.radius[k] = sphere.radius;
         }
         const std::uint32_t simd = spheres_near_axis(block, count, ray, reach, t_min, t_max);
         const std::uint32_t scalar =
@@ -633,11 +662,6 @@ TEST_P(ConeBlockKernels, DamagedChildrenAnsweredAsScalar) {
 
 /// Bounding spheres around random rays' axes, near and on the test's boundaries: `n` of them in
 /// the fields a ConeClusterSpheres is built from.
-struct RandomSphere {
-    std::array<float, 3> centre;
-    float radius;
-};
-
 TEST_P(ConeBlockKernels, ClustersNearAxisAgreeWithScalar) {
     // A node's clusters are read from arrays of all of them, at any offset, the last block
     // short: every count from 0 to a full block at the arrays' end (where only the padding
@@ -647,22 +671,11 @@ TEST_P(ConeBlockKernels, ClustersNearAxisAgreeWithScalar) {
     Agreement agreement;
     for (int i = 0; i < 4000; ++i) {
         const ConeRay ray = random_ray(rng);
-        const float scale = std::pow(10.0f, 2.0f * unit(rng));
-        const float reach = scale * 0.5f * (1.0f + unit(rng));
-        const float t_min = scale * (2.0f + unit(rng));
-        const float t_max = scale * (10.0f + 5.0f * unit(rng));
+        const RandomReach range(rng);
+        const auto [scale, reach, t_min, t_max] = range;
         std::vector<RandomSphere> spheres(40);
         for (RandomSphere& sphere : spheres) {
-            const float radius = random_radius(rng, 0.3f * scale);
-            const bool at_depth_limit = unit(rng) > 0.6f;
-            const float t = at_depth_limit ? (unit(rng) < 0.0f ? t_min - radius : t_max + radius) *
-                                                 random_reach_factor(rng)
-                                           : scale * 8.0f * (1.0f + unit(rng));
-            const Vec2f across = Vec2f(unit(rng), unit(rng)).normalized() * (reach + radius) *
-                                 random_reach_factor(rng);
-            const Vec3f centre =
-                ray.origin + t * ray.direction + across.x() * ray.cone.u + across.y() * ray.cone.v;
-            sphere = {{centre.x(), centre.y(), centre.z()}, radius};
+            sphere = random_sphere_at_reach(rng, ray, range);
         }
         const ConeClusterSpheres block(spheres);
         ASSERT_EQ(block.size(), spheres.size());
