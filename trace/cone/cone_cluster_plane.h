@@ -67,4 +67,49 @@ inline bool cluster_leaves(const ConeClusterPlane& plane, const Vec3f& centre, f
     return bound <= tolerance || (bound <= start && distance + radius <= near);
 }
 
+/// A triangle cluster's plane (cluster_plane of each triangle's first vertex and unit winding
+/// normal; infinite spread where a member has no normal) and its members' smallest size (the
+/// longer of the two edges from the first vertex).
+struct ConeTriangleClusterPlane {
+    ConeClusterPlane plane;
+    float min_size = 0.0f;
+};
+
+/// The leaving plane of the triangles j in [first, first + count) around `centre`, whose three
+/// vertices vertices(j) gives, formed as the traversal's test of one triangle forms them.
+template <class Vertices>
+ConeTriangleClusterPlane triangle_cluster_plane(const Vec3f& centre, std::uint32_t first,
+                                                std::uint32_t count, Vertices&& vertices) {
+    ConeTriangleClusterPlane cluster;
+    cluster.min_size = std::numeric_limits<float>::infinity();
+    bool has_normals = true;
+    cluster.plane = cluster_plane(centre, first, count, [&](std::uint32_t j) {
+        const std::array<Vec3f, 3> p = vertices(j);
+        const Vec3f edge1 = p[1] - p[0];
+        const Vec3f edge2 = p[2] - p[0];
+        const Vec3f winding = edge1.cross(edge2);
+        const float length = winding.norm();
+        cluster.min_size = std::min(cluster.min_size,
+                                    std::sqrt(std::max(edge1.squaredNorm(), edge2.squaredNorm())));
+        has_normals = has_normals && length > 0.0f;
+        return std::pair{p[0], length > 0.0f ? Vec3f(winding / length) : Vec3f::Zero()};
+    });
+    if (!has_normals || !std::isfinite(cluster.min_size)) {
+        // A member without a normal is never skipped by its own test.
+        cluster.plane.spread = std::numeric_limits<float>::infinity();
+    }
+    return cluster;
+}
+
+/// Whether every triangle of a cluster would be taken for the surface a cone leaves by the
+/// traversal's own test of one triangle, |n_t·(a − p_0)| ≤ coplanar·max(size, |p_0 − a|): the
+/// cluster's bound on each member's plane distance within half the smallest tolerance any member
+/// can have (the half is room for the members' own rounding). Sufficient, not necessary.
+inline bool triangle_cluster_leaves(const ConeTriangleClusterPlane& cluster, const Vec3f& centre,
+                                    float radius, const Vec3f& apex, float coplanar) {
+    const float distance = (centre - apex).norm();
+    const float tolerance = 0.5f * coplanar * std::max(cluster.min_size, distance - radius);
+    return cluster_leaves(cluster.plane, centre, radius, apex, tolerance);
+}
+
 }  // namespace mrt

@@ -645,6 +645,8 @@ class Walk {
         }
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         const std::uint32_t end = clusters.first_triangle_cluster + clusters.triangle_cluster_count;
+        // triangle()'s condition for its leaving test.
+        const bool skips_leaving = l.t_min > 0.0f || space.start == 0.0f;
         std::array<ClusterCull, kConeClusterSize> batch;
         for (std::uint32_t first = clusters.first_triangle_cluster; first < end;
              first += kConeClusterSize) {
@@ -658,7 +660,19 @@ class Walk {
                  reached != 0; reached &= reached - 1) {
                 const std::uint32_t c =
                     first + static_cast<std::uint32_t>(std::countr_zero(reached));
-                const float t = space.ray.frame_of(to_vec(m_geometry.triangle_cluster(c).centre)).t;
+                const ConeCluster& reached_cluster = m_geometry.triangle_cluster(c);
+                // Every triangle of a cluster of the surface the cone leaves would be skipped
+                // by triangle()'s own leaving test (its first clause, which holds whether or not
+                // the cone enters a solid through it): skipped whole, before its frame. A shadow
+                // cone from a floor met the floor's clusters around its start in every node
+                // near it, each decomposed and each triangle gathered, placed and culled first.
+                if (skips_leaving &&
+                    triangle_cluster_leaves(m_geometry.triangle_cluster_plane(c),
+                                            to_vec(reached_cluster.centre), reached_cluster.radius,
+                                            space.ray.origin, kCoplanarTolerance)) {
+                    continue;
+                }
+                const float t = space.ray.frame_of(to_vec(reached_cluster.centre)).t;
                 batch[count++] = {c, std::clamp(t, l.t_min, l.t_max), frame, radius};
             }
             if (varies) {
@@ -1106,6 +1120,15 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
         cluster(node, items, centroid, extent, m_triangle_clusters, m_triangle_order);
         c.triangle_cluster_count =
             static_cast<std::uint32_t>(m_triangle_clusters.size()) - c.first_triangle_cluster;
+        for (std::uint32_t k = c.first_triangle_cluster;
+             k < c.first_triangle_cluster + c.triangle_cluster_count; ++k) {
+            const ConeCluster& tc = m_triangle_clusters[k];
+            m_triangle_cluster_planes.push_back(mrt::triangle_cluster_plane(
+                to_vec(tc.centre), tc.first, tc.count, [&](std::uint32_t j) {
+                    const std::uint32_t t = m_triangle_order[j];
+                    return std::array<Vec3f, 3>{vertex(t, 0), vertex(t, 1), vertex(t, 2)};
+                }));
+        }
         append_blocks(m_triangle_clusters, c.first_triangle_cluster, c.triangle_cluster_count,
                       m_triangle_order, m_triangle_bounds,
                       [&](ConeBoundBlock& block, std::uint32_t i, std::uint32_t t) {

@@ -183,6 +183,9 @@ class ConeGeometry {
     /// The voxel codes and offsets of point cluster i's points, in their point_order().
     const ConeVoxelBlock& point_voxels(std::uint32_t i) const { return m_point_voxels[i]; }
     const ConeCluster& triangle_cluster(std::uint32_t i) const { return m_triangle_clusters[i]; }
+    const ConeTriangleClusterPlane& triangle_cluster_plane(std::uint32_t i) const {
+        return m_triangle_cluster_planes[i];
+    }
     /// The point and the triangle clusters' bounding spheres, a node's tested together.
     const ConeClusterSpheres& point_cluster_spheres() const { return m_point_cluster_spheres; }
     const ConeClusterSpheres& triangle_cluster_spheres() const {
@@ -213,6 +216,7 @@ class ConeGeometry {
     std::vector<ConeVoxelBlock> m_point_voxels;
     std::vector<ConeClusterPlane> m_point_cluster_planes;
     std::vector<ConeCluster> m_triangle_clusters;
+    std::vector<ConeTriangleClusterPlane> m_triangle_cluster_planes;
     std::vector<std::uint32_t> m_point_order;
     std::vector<std::uint32_t> m_triangle_order;
     std::vector<ConeBoundBlock> m_triangle_bounds;

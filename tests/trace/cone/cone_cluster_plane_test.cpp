@@ -10,7 +10,10 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <utility>
 #include <vector>
@@ -213,6 +216,100 @@ TEST(ConeClusterPlane, NormalsThatCancelHaveNoPlane) {
     const ConeClusterPlane plane = plane_of(members, Vec3f(0.5f, 0.0f, 0.0f));
     EXPECT_TRUE(std::isinf(plane.spread));
     EXPECT_FALSE(cluster_leaves(plane, Vec3f(0.5f, 0.0f, 0.0f), 0.5f, Vec3f::Zero(), 1.0f));
+}
+
+/// The traversal's test of one triangle of the surface a cone leaves (cone_traversal.cpp,
+/// triangle(): the first clause, which holds whether or not the cone enters a solid), in float
+/// as it forms it.
+bool triangle_leaves(const std::array<Vec3f, 3>& p, const Vec3f& apex, float coplanar) {
+    const Vec3f edge1 = p[1] - p[0];
+    const Vec3f edge2 = p[2] - p[0];
+    const Vec3f normal = edge1.cross(edge2);
+    const float length = normal.norm();
+    const float size = std::sqrt(std::max(edge1.squaredNorm(), edge2.squaredNorm()));
+    const float scale = std::sqrt(std::max(size * size, (p[0] - apex).squaredNorm()));
+    return length > 0.0f && std::abs((normal / length).dot(apex - p[0])) <= coplanar * scale;
+}
+
+TEST(ConeClusterPlane, ATriangleClusterIsLeftOnlyWhereEveryTriangleIs) {
+    // Triangles of a plane (a floor's tiles, of mixed sizes: the smallest member bounds the
+    // tolerance) or of a gently curved patch, at scales from 1e-2 to 1e2, with apexes at
+    // distances from the plane around the tolerance: whenever the cluster says left, each
+    // triangle's own test says so, and for flat clusters with the apex well inside the
+    // tolerance it does say so.
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::uniform_real_distribution<float> positive(0.0f, 1.0f);
+    constexpr float kCoplanar = 1e-5f;
+    int said_left = 0;
+    int flat_and_near = 0;
+    int flat_and_near_left = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const float scale = std::pow(10.0f, 2.0f * unit(rng));
+        const Vec3f up = Vec3f(unit(rng), unit(rng), unit(rng)).normalized();
+        const Vec3f a = up.unitOrthogonal();
+        const Vec3f b = up.cross(a);
+        const Vec3f origin = Vec3f(unit(rng), unit(rng), unit(rng)) * 2.0f * scale;
+        const bool flat = positive(rng) < 0.6f;
+        const float sag = flat ? 0.0f : 1e-6f * scale * positive(rng);
+        const auto on_surface = [&](float x, float y) {
+            return Vec3f(origin + x * a + y * b + sag * (x * x + y * y) / (scale * scale) * up);
+        };
+        std::vector<std::array<Vec3f, 3>> triangles;
+        float min_size = std::numeric_limits<float>::infinity();
+        for (int k = 0; k < 8; ++k) {
+            // Mixed sizes: a third of the cluster's width to all of it.
+            const float size = scale * (positive(rng) < 0.3f ? 0.3f : 1.0f);
+            const float x = scale * unit(rng);
+            const float y = scale * unit(rng);
+            triangles.push_back(
+                {on_surface(x, y), on_surface(x + size, y), on_surface(x, y + size)});
+            min_size = std::min(min_size, size);
+        }
+        Vec3f centre = Vec3f::Zero();
+        for (const auto& t : triangles) {
+            centre += (t[0] + t[1] + t[2]) / 24.0f;
+        }
+        float radius = 0.0f;
+        for (const auto& t : triangles) {
+            for (const Vec3f& v : t) {
+                radius = std::max(radius, (v - centre).norm());
+            }
+        }
+        const ConeTriangleClusterPlane cluster =
+            triangle_cluster_plane(centre, 0, static_cast<std::uint32_t>(triangles.size()),
+                                   [&](std::uint32_t j) { return triangles[j]; });
+        // The apex on the surface near the cluster (or inside it), lifted off the plane by a
+        // multiple of the smallest member's tolerance.
+        const float lift = kCoplanar * min_size * 2.0f * positive(rng);
+        const Vec3f apex =
+            on_surface(2.0f * scale * unit(rng), 2.0f * scale * unit(rng)) + lift * up;
+        const bool left = triangle_cluster_leaves(cluster, centre, radius, apex, kCoplanar);
+        if (left) {
+            ++said_left;
+            for (const auto& t : triangles) {
+                ASSERT_TRUE(triangle_leaves(t, apex, kCoplanar))
+                    << "case " << i << ": the cluster is left, a triangle is not";
+            }
+        }
+        if (flat && lift < 0.1f * kCoplanar * min_size) {
+            ++flat_and_near;
+            flat_and_near_left += left ? 1 : 0;
+        }
+    }
+    EXPECT_GT(said_left, 1500);
+    EXPECT_GT(flat_and_near_left, flat_and_near * 3 / 4) << flat_and_near;
+}
+
+TEST(ConeClusterPlane, ATriangleWithoutANormalKeepsItsCluster) {
+    const std::array<std::array<Vec3f, 3>, 2> triangles{
+        {{Vec3f::Zero(), Vec3f::UnitX(), Vec3f::UnitZ()},
+         {Vec3f::Zero(), Vec3f::UnitX(), Vec3f(2.0f, 0.0f, 0.0f)}}};
+    const ConeTriangleClusterPlane cluster = triangle_cluster_plane(
+        Vec3f(0.5f, 0.0f, 0.5f), 0, 2, [&](std::uint32_t j) { return triangles[j]; });
+    EXPECT_TRUE(std::isinf(cluster.plane.spread));
+    EXPECT_FALSE(triangle_cluster_leaves(cluster, Vec3f(0.5f, 0.0f, 0.5f), 2.0f,
+                                         Vec3f(0.2f, 0.0f, 0.2f), 1e-5f));
 }
 
 }  // namespace
