@@ -56,14 +56,20 @@ ConeClusterPlane cluster_plane(const Vec3f& centre, std::uint32_t first, std::ui
 /// around the apex, below the start's resolution): within `start` of the apex while every member
 /// lies within `near` of it, |c − a| + r ≤ near. Sufficient, not necessary: false says nothing
 /// about the members.
+/// The bound on every member's |n_p·(p − a)| for a cluster whose centre lies `apart` from the
+/// apex, at `distance` = |apart|.
+inline float cluster_plane_distance(const ConeClusterPlane& plane, const Vec3f& apart,
+                                    float distance, float radius) {
+    const Vec3f normal(plane.normal[0], plane.normal[1], plane.normal[2]);
+    return std::abs(normal.dot(apart)) + plane.thickness + plane.spread * (distance + radius);
+}
+
 inline bool cluster_leaves(const ConeClusterPlane& plane, const Vec3f& centre, float radius,
                            const Vec3f& apex, float tolerance, float start = 0.0f,
                            float near = 0.0f) {
     const Vec3f apart = centre - apex;
-    const Vec3f normal(plane.normal[0], plane.normal[1], plane.normal[2]);
     const float distance = apart.norm();
-    const float bound =
-        std::abs(normal.dot(apart)) + plane.thickness + plane.spread * (distance + radius);
+    const float bound = cluster_plane_distance(plane, apart, distance, radius);
     return bound <= tolerance || (bound <= start && distance + radius <= near);
 }
 
@@ -107,9 +113,10 @@ ConeTriangleClusterPlane triangle_cluster_plane(const Vec3f& centre, std::uint32
 /// can have (the half is room for the members' own rounding). Sufficient, not necessary.
 inline bool triangle_cluster_leaves(const ConeTriangleClusterPlane& cluster, const Vec3f& centre,
                                     float radius, const Vec3f& apex, float coplanar) {
-    const float distance = (centre - apex).norm();
-    const float tolerance = 0.5f * coplanar * std::max(cluster.min_size, distance - radius);
-    return cluster_leaves(cluster.plane, centre, radius, apex, tolerance);
+    const Vec3f apart = centre - apex;
+    const float distance = apart.norm();
+    return cluster_plane_distance(cluster.plane, apart, distance, radius) <=
+           0.5f * coplanar * std::max(cluster.min_size, distance - radius);
 }
 
 }  // namespace mrt
