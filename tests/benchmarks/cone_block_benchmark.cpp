@@ -6,10 +6,11 @@
 // against the cone's reach (and the same spheres as a node's clusters read from the arrays of all
 // of them), a cluster's 16 point voxels against the clip, a node's 8 children
 // against the cone's circle, and the points of a cluster the voxel test let through placed,
-// tested and given their exponents (weigh_points). 512 different random blocks (a few hundred
-// kilobytes, in the second-level cache as a node's blocks are when the traversal reads them) are
-// cycled through, so that the branch predictor does not learn one; 10 to 50 % of their members
-// pass.
+// tested and given their exponents (weigh_points), and the triangles of a cluster the spheres'
+// test let through placed, mapped into the cull's frame and culled (triangles_within_cull). 512
+// different random blocks (a few hundred kilobytes, in the second-level cache as a node's blocks
+// are when the traversal reads them) are cycled through, so that the branch predictor does not
+// learn one; 10 to 50 % of their members pass.
 
 #include "common/footprint/footprint.h"
 #include "common/footprint/point_weight.h"
@@ -20,6 +21,8 @@
 #include "trace/cone/cone_cluster_spheres.h"
 #include "trace/cone/cone_point_lanes.h"
 #include "trace/cone/cone_ray.h"
+#include "trace/cone/cone_triangle.h"
+#include "trace/cone/cone_triangle_block.h"
 
 #include <benchmark/benchmark.h>
 
@@ -227,6 +230,47 @@ const std::vector<PointCase>& point_cases() {
     return cases;
 }
 
+struct TriangleCase {
+    ConeRay ray;
+    TriangleCull cull;
+    ConeTriangleBlock block;
+    std::uint32_t candidates = 0;
+    std::uint32_t count = 0;  ///< The candidates.
+};
+
+/// A cluster of a mesh's triangles (each a few footprints across) around a point near the
+/// cone's axis, culled with the footprint's frame at its depth and the traversal's reach; the
+/// spheres' test has let 4 to 16 of them through.
+const std::vector<TriangleCase>& triangle_cases() {
+    static const std::vector<TriangleCase> cases = [] {
+        std::mt19937_64 rng(79);
+        std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+        std::uniform_int_distribution<std::uint32_t> mask(0, 0xffffu);
+        std::vector<TriangleCase> out(kBlocks);
+        for (TriangleCase& c : out) {
+            c.ray = random_ray(rng);
+            const float t = 5.0f;
+            c.cull.t_min = 0.0f;
+            c.cull.t_max = 100.0f;
+            c.cull.frame = GaussianFrame::of(c.ray.cone.at(t));
+            c.cull.reach = 1.25f * triangle_clip_radius(TriangleWeight::Coverage);
+            const Vec3f centre = beside_axis(c.ray, t, 0.05f, rng);
+            for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+                const Vec3f corner = centre + 0.04f * Vec3f(unit(rng), unit(rng), unit(rng));
+                std::array<Vec3f, 3> p;
+                for (Vec3f& vertex : p) {
+                    vertex = corner + 0.02f * Vec3f(unit(rng), unit(rng), unit(rng));
+                }
+                c.block.set(k, p);
+            }
+            c.candidates = mask(rng) | mask(rng) | 0xfu;
+            c.count = static_cast<std::uint32_t>(std::popcount(c.candidates));
+        }
+        return out;
+    }();
+    return cases;
+}
+
 /// Runs `test(case) -> mask` over the cases, one per iteration; then, untimed, counts the
 /// members kept.
 template <typename Case, typename Test>
@@ -361,6 +405,21 @@ void BM_WeighPointsSimd(benchmark::State& state) {
     });
 }
 BENCHMARK(BM_WeighPointsSimd);
+
+void BM_TrianglesWithinCullScalar(benchmark::State& state) {
+    run_blocks(state, triangle_cases(), [](const TriangleCase& c) {
+        return triangles_within_cull_scalar(c.block, c.candidates, c.ray, c.cull);
+    });
+}
+BENCHMARK(BM_TrianglesWithinCullScalar);
+
+void BM_TrianglesWithinCullSimd(benchmark::State& state) {
+    state.SetLabel(block_kernel_target());
+    run_blocks(state, triangle_cases(), [](const TriangleCase& c) {
+        return triangles_within_cull(c.block, c.candidates, c.ray, c.cull);
+    });
+}
+BENCHMARK(BM_TrianglesWithinCullSimd);
 
 }  // namespace
 }  // namespace mrt

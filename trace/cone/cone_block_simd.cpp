@@ -19,6 +19,7 @@
 #include "trace/cone/cone_cluster_spheres.h"
 #include "trace/cone/cone_point_lanes.h"
 #include "trace/cone/cone_ray.h"
+#include "trace/cone/cone_triangle_block.h"
 
 #include <algorithm>
 #include <array>
@@ -394,6 +395,65 @@ std::uint32_t clusters_near_axis_simd(const ConeClusterSpheres& spheres, std::ui
     return mask & bits_below(used);
 }
 
+/// triangles_within_cull_scalar, a vector of triangles at a time: TriangleInRayFrame's
+/// placement and map written out. Where the reference takes a minimum or maximum over the three
+/// vertices, the kernel asks whether all three compare beyond the bound: the same answer for
+/// finite vertices, and a NaN vertex keeps the triangle (for the reference to decide).
+std::uint32_t triangles_within_cull_simd(const ConeTriangleBlock& block, std::uint32_t candidates,
+                                         const ConeRay& ray, const TriangleCull& cull) {
+    const hn::CappedTag<float, kConeClusterSize> d;
+    const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
+    const std::uint32_t vector_bits = lanes >= 32 ? ~0u : (1u << lanes) - 1u;
+    const RayLanes<decltype(d)> ray_lanes(d, ray);
+    const auto& [ox, oy, oz, dx, dy, dz, ux, uy, uz, vx, vy, vz] = ray_lanes.lanes;
+    const auto t_min = hn::Set(d, cull.t_min);
+    const auto t_max = hn::Set(d, cull.t_max);
+    const float axis_x = cull.frame.axis.x();
+    const float axis_y = cull.frame.axis.y();
+    const auto ax = hn::Set(d, axis_x);
+    const auto ay = hn::Set(d, axis_y);
+    const auto minus_ay = hn::Set(d, -axis_y);
+    const auto major = hn::Set(d, cull.frame.inverse_semi_axes.x());
+    const auto minor = hn::Set(d, cull.frame.inverse_semi_axes.y());
+    const auto reach = hn::Set(d, cull.reach);
+    const auto minus_reach = hn::Set(d, -cull.reach);
+    const auto all = hn::FirstN(d, lanes);
+    std::uint32_t kept = 0;
+    for (std::uint32_t k = 0; k < kConeClusterSize; k += lanes) {
+        if (((candidates >> k) & vector_bits) == 0) {
+            continue;
+        }
+        auto before = all;
+        auto after = all;
+        auto right = all;
+        auto left = all;
+        auto above = all;
+        auto below = all;
+        for (std::size_t i = 0; i < 3; ++i) {
+            const auto px = hn::Load(d, block.position[3 * i].data() + k) - ox;
+            const auto py = hn::Load(d, block.position[3 * i + 1].data() + k) - oy;
+            const auto pz = hn::Load(d, block.position[3 * i + 2].data() + k) - oz;
+            const auto t = px * dx + (py * dy + pz * dz);
+            const auto u = px * ux + (py * uy + pz * uz);
+            const auto v = px * vx + (py * vy + pz * vz);
+            const auto along = (u * ax + v * ay) * major;
+            const auto across = (u * minus_ay + v * ax) * minor;
+            const auto x = along * ax + across * minus_ay;
+            const auto y = along * ay + across * ax;
+            before = hn::And(before, t < t_min);
+            after = hn::And(after, t > t_max);
+            right = hn::And(right, x > reach);
+            left = hn::And(left, x < minus_reach);
+            above = hn::And(above, y > reach);
+            below = hn::And(below, y < minus_reach);
+        }
+        const auto culled =
+            hn::Or(hn::Or(hn::Or(before, after), hn::Or(right, left)), hn::Or(above, below));
+        kept |= lane_bits(d, hn::Not(culled)) << k;
+    }
+    return kept & candidates;
+}
+
 }  // namespace
 }  // namespace HWY_NAMESPACE
 }  // namespace mrt
@@ -407,6 +467,7 @@ HWY_EXPORT(voxels_within_clip_simd);
 HWY_EXPORT(children_near_cone_simd);
 HWY_EXPORT(weigh_points_simd);
 HWY_EXPORT(clusters_near_axis_simd);
+HWY_EXPORT(triangles_within_cull_simd);
 HWY_EXPORT(target_name);
 
 std::uint32_t spheres_near_axis(const ConeBoundBlock& block, std::uint32_t count,
@@ -438,6 +499,11 @@ std::uint32_t clusters_near_axis(const ConeClusterSpheres& spheres, std::uint32_
                                  float t_max) {
     return HWY_DYNAMIC_DISPATCH(clusters_near_axis_simd)(spheres, first, count, ray, reach, t_min,
                                                          t_max);
+}
+
+std::uint32_t triangles_within_cull(const ConeTriangleBlock& block, std::uint32_t candidates,
+                                    const ConeRay& ray, const TriangleCull& cull) {
+    return HWY_DYNAMIC_DISPATCH(triangles_within_cull_simd)(block, candidates, ray, cull);
 }
 
 const char* block_kernel_target() {

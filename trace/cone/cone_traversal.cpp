@@ -700,14 +700,26 @@ class Walk {
                                       kSquareAnisotropy * cull.frame.inverse_semi_axes.x()
                         ? cull.frame.square(kCullMargin * units)
                         : GaussianSquare{};
-                for (std::uint32_t near =
-                         spheres_near_axis(m_geometry.triangle_bounds(cull.cluster), cluster.count,
-                                           space.ray, triangle_reach, l.t_min, l.t_max, square);
-                     near != 0; near &= near - 1) {
-                    const std::uint32_t j =
-                        cluster.first + static_cast<std::uint32_t>(std::countr_zero(near));
-                    triangle(space, m_geometry.triangle_order(j), l, per_vertex, cull.frame,
-                             cull.radius, weight);
+                const std::uint32_t near =
+                    spheres_near_axis(m_geometry.triangle_bounds(cull.cluster), cluster.count,
+                                      space.ray, triangle_reach, l.t_min, l.t_max, square);
+                if (near == 0) {
+                    continue;
+                }
+                m_stats.triangles_tested += static_cast<std::uint64_t>(std::popcount(near));
+                // The cheap rejections of the triangles the spheres let through, all at once
+                // from the cluster's own copy of their vertices; triangle() tests what is kept
+                // again, one at a time.
+                const TriangleCull vertex_cull{
+                    l.t_min, l.t_max, cull.frame,
+                    per_vertex ? kCullMargin * units : std::numeric_limits<float>::infinity()};
+                const ConeTriangleBlock& vertices = m_geometry.triangle_vertices(cull.cluster);
+                for (std::uint32_t kept =
+                         triangles_within_cull(vertices, near, space.ray, vertex_cull);
+                     kept != 0; kept &= kept - 1) {
+                    const auto k = static_cast<std::uint32_t>(std::countr_zero(kept));
+                    triangle(space, m_geometry.triangle_order(cluster.first + k),
+                             vertices.vertices(k), l, per_vertex, vertex_cull, cull.radius, weight);
                 }
             }
         }
@@ -720,21 +732,23 @@ class Walk {
         GaussianFrame frame;
         float radius = 0.0f;  ///< The frame's largest semi-axis.
     };
-    void triangle(const ConeSpace& space, std::uint32_t triangle, const Look& l, bool per_vertex,
-                  const GaussianFrame& frame, float radius, float weight) {
+    /// `p` are the triangle's vertices, `cull` its cheap rejections (triangles_within_cull's).
+    void triangle(const ConeSpace& space, std::uint32_t triangle, const std::array<Vec3f, 3>& p,
+                  const Look& l, bool per_vertex, const TriangleCull& cull, float radius,
+                  float weight) {
         {
-            ++m_stats.triangles_tested;
-            const auto& tri = m_view.triangles[triangle];
-            const std::array<Vec3f, 3> p{to_vec(m_view.vertex_positions[tri[0]]),
-                                         to_vec(m_view.vertex_positions[tri[1]]),
-                                         to_vec(m_view.vertex_positions[tri[2]])};
             const TriangleInRayFrame in_ray(space.ray, p);
-            if (std::max({in_ray.t[0], in_ray.t[1], in_ray.t[2]}) < l.t_min ||
-                std::min({in_ray.t[0], in_ray.t[1], in_ray.t[2]}) > l.t_max) {
+            // The vertices in the cull's frame: culled with it (a margin wider than the
+            // footprint changes across the node where each vertex is weighed with its own
+            // frame, so that the triangles around a shared edge weigh exactly 1 together
+            // wherever they are kept), and weighed with it where the vertices' own frames are
+            // not used.
+            const TriangleInRayFrame::Mapped mapped = in_ray.map(cull.frame);
+            if (triangle_culled(in_ray, mapped, cull)) {
                 return;
             }
             // The winding is formed only where it is read: by a closed surface's back-face test
-            // and for what passes the cull (a third of the triangles tested do not).
+            // and for what passes the cull.
             const auto winding_of = [&p] { return Vec3f((p[1] - p[0]).cross(p[2] - p[0])); };
             if (m_options.cull_closed_back_faces) {
                 const ClosedSurface* closed = m_geometry.closed_surfaces().of_triangle(triangle);
@@ -742,27 +756,6 @@ class Walk {
                     closed->back_facing(p[0], winding_of(), space.ray.origin, space.start)) {
                     ++m_stats.back_faces_culled;
                     return;
-                }
-            }
-            // The vertices in the cull's frames: culled with them, and weighed with them
-            // where the vertices' own frames are not used.
-            const TriangleInRayFrame::Mapped mapped = in_ray.map(frame);
-            if (per_vertex) {
-                // Culled with the node's (or cluster's) one frame, a margin wider than the
-                // footprint changes across the node; weighed with each vertex's own, so that
-                // the triangles around a shared edge weigh exactly 1 together wherever they
-                // are kept.
-                const float reach = kCullMargin * triangle_clip_radius(m_options.triangle_weight);
-                for (const Eigen::Array4f* y : {&mapped.x, &mapped.y}) {
-                    float lo = std::numeric_limits<float>::infinity();
-                    float hi = -lo;
-                    for (Eigen::Index i = 0; i < 3; ++i) {
-                        lo = std::min(lo, (*y)[i]);
-                        hi = std::max(hi, (*y)[i]);
-                    }
-                    if (lo > reach || hi < -reach) {
-                        return;
-                    }
                 }
             }
             const std::array<VertexInRayFrame, 3> vertices = in_ray.vertices();
@@ -799,6 +792,7 @@ class Walk {
                 const float nearest = std::min({vertices[0].t, vertices[1].t, vertices[2].t});
                 const float farthest = std::max({vertices[0].t, vertices[1].t, vertices[2].t});
                 per_vertex = nearest > kApexRatio * farthest && nearest > l.t_min;
+                const auto& tri = m_view.triangles[triangle];
                 for (std::size_t i = 0; per_vertex && i < 3; ++i) {
                     exact[i] = vertex_frame(space, tri[i], vertices[i].t);
                 }
@@ -1139,6 +1133,11 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                           // Rounding of the centre and of the ray frame's offsets: a relative
                           // margin.
                           block.radius[i] = padded_bound(extent(t));
+                      });
+        append_blocks(m_triangle_clusters, c.first_triangle_cluster, c.triangle_cluster_count,
+                      m_triangle_order, m_triangle_vertices,
+                      [&](ConeTriangleBlock& block, std::uint32_t i, std::uint32_t t) {
+                          block.set(i, {vertex(t, 0), vertex(t, 1), vertex(t, 2)});
                       });
     }
     m_point_cluster_spheres = ConeClusterSpheres(m_point_clusters);

@@ -42,6 +42,7 @@
 #include "trace/cone/cone_ray.h"
 #include "trace/cone/cone_surface.h"
 #include "trace/cone/cone_triangle.h"
+#include "trace/cone/cone_triangle_block.h"
 
 #include <array>
 #include <atomic>
@@ -199,6 +200,11 @@ class ConeGeometry {
     /// tests them before gathering the triangles' vertices (most triangles of a cluster the cone
     /// touches are still beyond its reach).
     const ConeBoundBlock& triangle_bounds(std::uint32_t i) const { return m_triangle_bounds[i]; }
+    /// The vertices of triangle cluster i's triangles, in their triangle_order(): a cone rejects
+    /// most of those whose spheres it reaches from these, without reading the file's indices.
+    const ConeTriangleBlock& triangle_vertices(std::uint32_t i) const {
+        return m_triangle_vertices[i];
+    }
 
   private:
     HierarchyView m_view;
@@ -220,6 +226,7 @@ class ConeGeometry {
     std::vector<std::uint32_t> m_point_order;
     std::vector<std::uint32_t> m_triangle_order;
     std::vector<ConeBoundBlock> m_triangle_bounds;
+    std::vector<ConeTriangleBlock> m_triangle_vertices;
     ConeClusterSpheres m_point_cluster_spheres;
     ConeClusterSpheres m_triangle_cluster_spheres;
 };

@@ -16,6 +16,7 @@
 #include "trace/cone/cone_cluster_spheres.h"
 #include "trace/cone/cone_ray.h"
 #include "trace/cone/cone_triangle.h"
+#include "trace/cone/cone_triangle_block.h"
 
 #include <gtest/gtest.h>
 #include <hwy/targets.h>
@@ -23,6 +24,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
@@ -747,6 +749,180 @@ TEST_P(ConeBlockKernels, ClustersNearAxisKeepDamagedSpheresAndNoPadding) {
     const ConeClusterSpheres none;
     EXPECT_EQ(none.size(), 0u);
     EXPECT_EQ(clusters_near_axis(none, 0, 0, ray, 1e30f, -kInf, kInf), 0u);
+}
+
+/// A triangle cull of a random cone: its depths, the frame of its footprint somewhere between
+/// them (anisotropy-clamped as the traversal's are), and the square's reach in the frame's units
+/// (none, one time in eight).
+TriangleCull random_triangle_cull(std::mt19937_64& rng, const ConeRay& ray,
+                                  const RandomReach& range) {
+    std::uniform_real_distribution<float> positive(0.0f, 1.0f);
+    TriangleCull cull;
+    cull.t_min = range.t_min;
+    cull.t_max = range.t_max;
+    const float t = range.t_min + positive(rng) * (range.t_max - range.t_min);
+    cull.frame = GaussianFrame::of(FootprintCone::clamp_anisotropy(ray.cone.at(t), 8.0f));
+    cull.reach = positive(rng) < 0.125f ? kInf : 3.0f * positive(rng);
+    return cull;
+}
+
+/// A vertex placed by its depth and its coordinates y in `cull`'s frame (the inverse of
+/// GaussianFrame::map: U·Λ^(1/2)·Uᵀ·y).
+Vec3f vertex_at(const ConeRay& ray, const TriangleCull& cull, float t, const Vec2f& y) {
+    const Vec2f& axis = cull.frame.axis;
+    const Vec2f minor(-axis.y(), axis.x());
+    const Vec2f offset = y.dot(axis) / cull.frame.inverse_semi_axes.x() * axis +
+                         y.dot(minor) / cull.frame.inverse_semi_axes.y() * minor;
+    return ray.origin + t * ray.direction + offset.x() * ray.cone.u + offset.y() * ray.cone.v;
+}
+
+/// A triangle near one of the cull's boundaries: all three vertices around one depth limit or
+/// around one side of the square (within a few ulps of it or well to either side), or
+/// straddling the cone.
+std::array<Vec3f, 3> random_triangle_at_cull(std::mt19937_64& rng, const ConeRay& ray,
+                                             const TriangleCull& cull, float scale) {
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::uniform_int_distribution<int> side(0, 6);
+    const float reach = std::isfinite(cull.reach) ? cull.reach : 3.0f;
+    const int which = side(rng);
+    std::array<Vec3f, 3> p;
+    for (Vec3f& vertex : p) {
+        float t = cull.t_min + (cull.t_max - cull.t_min) * 0.5f * (1.0f + unit(rng));
+        Vec2f y(reach * unit(rng), reach * unit(rng));
+        switch (which) {
+            case 0:
+                t = cull.t_min * random_reach_factor(rng) - 0.1f * scale * (1.0f + unit(rng));
+                break;
+            case 1:
+                t = cull.t_max * random_reach_factor(rng);
+                break;
+            case 2:
+            case 3:
+            case 4:
+            case 5: {
+                const float sign = which % 2 == 0 ? 1.0f : -1.0f;
+                y[which < 4 ? 0 : 1] = sign * reach * random_reach_factor(rng);
+                break;
+            }
+            default:
+                y *= 2.0f;
+        }
+        vertex = vertex_at(ray, cull, t, y);
+    }
+    return p;
+}
+
+TEST_P(ConeBlockKernels, TrianglesWithinCullAgreeWithScalar) {
+    std::mt19937_64 rng(59);
+    std::uniform_int_distribution<std::uint32_t> bits(0, (1u << kConeClusterSize) - 1u);
+    Agreement agreement;
+    for (int i = 0; i < 3000; ++i) {
+        const ConeRay ray = random_ray(rng);
+        const RandomReach range(rng);
+        const TriangleCull cull = random_triangle_cull(rng, ray, range);
+        if (!(cull.frame.inverse_semi_axes.minCoeff() > 0.0f)) {
+            continue;
+        }
+        ConeTriangleBlock block;
+        for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+            block.set(k, random_triangle_at_cull(rng, ray, cull, range.scale));
+        }
+        // Any subset of the members: the spheres' test lets some through.
+        const std::uint32_t candidates = i % 4 == 0 ? (1u << kConeClusterSize) - 1u : bits(rng);
+        const std::uint32_t simd = triangles_within_cull(block, candidates, ray, cull);
+        const std::uint32_t scalar = triangles_within_cull_scalar(block, candidates, ray, cull);
+        ASSERT_EQ(simd & ~candidates, 0u) << "case " << i;
+        ASSERT_EQ(scalar & ~candidates, 0u) << "case " << i;
+        for (std::uint32_t k = 0; k < kConeClusterSize; ++k) {
+            if (((candidates >> k) & 1u) == 0) {
+                continue;
+            }
+            // In double precision: culled where every vertex lies beyond one bound.
+            std::array<bool, 6> beyond_all;
+            beyond_all.fill(true);
+            bool marginal = false;
+            const std::array<Vec3f, 3> p = block.vertices(k);
+            for (const Vec3f& vertex : p) {
+                const Eigen::Vector3d d = (vertex - ray.origin).cast<double>();
+                const double t = d.dot(ray.direction.cast<double>());
+                const Eigen::Vector2d offset(d.dot(ray.cone.u.cast<double>()),
+                                             d.dot(ray.cone.v.cast<double>()));
+                const Eigen::Vector2d axis = cull.frame.axis.cast<double>();
+                const Eigen::Vector2d minor(-axis.y(), axis.x());
+                const Eigen::Vector2d y =
+                    offset.dot(axis) * double{cull.frame.inverse_semi_axes.x()} * axis +
+                    offset.dot(minor) * double{cull.frame.inverse_semi_axes.y()} * minor;
+                const double depth_scale =
+                    d.norm() + std::abs(double{cull.t_min}) + std::abs(double{cull.t_max});
+                const double map_scale =
+                    d.norm() * double{cull.frame.inverse_semi_axes.maxCoeff()} + cull.reach;
+                const std::array<Rejection, 6> sides{
+                    Rejection{t, cull.t_min, depth_scale, false},
+                    Rejection{t, cull.t_max, depth_scale, true},
+                    Rejection{y.x(), cull.reach, map_scale, true},
+                    Rejection{y.x(), -double{cull.reach}, map_scale, false},
+                    Rejection{y.y(), cull.reach, map_scale, true},
+                    Rejection{y.y(), -double{cull.reach}, map_scale, false}};
+                for (std::size_t s = 0; s < sides.size(); ++s) {
+                    beyond_all[s] = beyond_all[s] && sides[s].holds();
+                    // Without a square only the depths can be marginal.
+                    marginal =
+                        marginal || ((s < 2 || std::isfinite(cull.reach)) && sides[s].marginal());
+                }
+            }
+            const bool exact_kept = std::none_of(beyond_all.begin(), beyond_all.end(),
+                                                 [](bool culled) { return culled; });
+            const bool simd_kept = ((simd >> k) & 1u) != 0;
+            const bool scalar_kept = ((scalar >> k) & 1u) != 0;
+            // The reference is the traversal's own test of one triangle; the kernel may keep
+            // what it rejects only on a boundary, never reject what it keeps but there.
+            if (!marginal) {
+                ASSERT_EQ(scalar_kept, exact_kept) << "case " << i << " triangle " << k;
+            }
+            ASSERT_TRUE(agreement.add(simd_kept, scalar_kept, !marginal))
+                << "case " << i << " triangle " << k;
+        }
+    }
+    agreement.expect_consistent();
+}
+
+TEST_P(ConeBlockKernels, TrianglesWithinCullKeepDamagedTriangles) {
+    ConeRay ray;
+    ray.cone.incr_dev = Mat2f::Identity() * 0.01f;
+    TriangleCull cull;
+    cull.t_min = 1.0f;
+    cull.t_max = 10.0f;
+    cull.frame = GaussianFrame::of(ray.cone.at(5.0f));
+    cull.reach = 2.0f;
+    ConeTriangleBlock block;
+    const Vec3f x = Vec3f::UnitX();
+    const Vec3f y = Vec3f::UnitY();
+    const Vec3f z = Vec3f::UnitZ();
+    // Footprint 0.05 at depth 5: the square reaches 0.1 off the axis.
+    const std::array<std::array<Vec3f, 3>, 8> triangles{{
+        {5.0f * z - 0.2f * x, 5.0f * z + 0.2f * x, 5.0f * z + 0.2f * y},      // around the axis
+        {5.0f * z + x, 5.0f * z + 2.0f * x, 5.0f * z + x + y},                // beside it
+        {5.0f * z + x, Vec3f(kNaN, 0.0f, 5.0f), 5.0f * z + x + y},            // beside, damaged
+        {0.5f * z, 0.6f * z, 0.7f * z + 0.01f * x},                           // before t_min
+        {11.0f * z, 12.0f * z, 12.0f * z + 0.01f * x},                        // after t_max
+        {0.5f * z, Vec3f(0.0f, 0.0f, kNaN), 0.7f * z},                        // before, damaged
+        {5.0f * z - 3.0f * y, 5.0f * z - 3.0f * y + x, 5.0f * z - 4.0f * y},  // below
+        {5.0f * z - 3.0f * y, 5.0f * z + 3.0f * y, 5.0f * z + 0.5f * x},      // across
+    }};
+    for (std::uint32_t k = 0; k < triangles.size(); ++k) {
+        block.set(k, triangles[k]);
+    }
+    const std::uint32_t all = (1u << triangles.size()) - 1u;
+    // The kernel keeps what has a NaN vertex (the reference decides); the rest as the
+    // reference, which a NaN vertex does not stop from rejecting by the other two.
+    EXPECT_EQ(triangles_within_cull(block, all, ray, cull), 0b10100101u);
+    EXPECT_EQ(triangles_within_cull_scalar(block, all, ray, cull), 0b10000001u);
+    EXPECT_EQ(triangles_within_cull(block, 0b10100000u, ray, cull), 0b10100000u);
+    EXPECT_EQ(triangles_within_cull(block, 0, ray, cull), 0u);
+    // Without a square only the depths reject.
+    cull.reach = kInf;
+    EXPECT_EQ(triangles_within_cull(block, all, ray, cull), 0b11100111u);
+    EXPECT_EQ(triangles_within_cull_scalar(block, all, ray, cull), 0b11000111u);
 }
 
 }  // namespace
