@@ -74,6 +74,17 @@ class ConeSphereTest {
         return std::max(0.0f, value) + kQuadraticRounding * magnitude;
     }
 
+    /// At least the largest semi-axis √λ_max of the footprint's ellipse at depth t,
+    /// FootprintCone::ellipse_of(cone.at(t)) (the pixel footprint convolved with the blur), as
+    /// its decomposition rounds it; the anisotropy clamp does not change it. λ_max is at most the
+    /// ellipse's trace, ‖F(t)‖_F² + ‖B(t)‖_F²: what a frame at that depth can reach, known
+    /// without the footprint's root or decomposition. Meaningless unless circle().finite.
+    float largest_semi_axis(float t) const {
+        return std::sqrt(frobenius_squared(t)) * (1.0f + kSemiAxisRounding);
+    }
+    /// Relative room between the bound and the decomposition's own rounding of λ_max.
+    static constexpr float kSemiAxisRounding = 1e-4f;
+
     /// All that circle_may_touch reads of the cone: what a kernel testing several spheres at
     /// once (children_near_cone, trace/cone/cone_block_simd.cpp) needs to answer exactly as it
     /// does, evaluating frobenius_squared and the circle in the same order.

@@ -676,6 +676,28 @@ class Walk {
                 batch[count++] = {c, std::clamp(t, l.t_min, l.t_max), frame, radius};
             }
             if (varies) {
+                // Two thirds of these clusters (the default scene) have no triangle whose sphere
+                // the cone reaches: those are found first with a reach no frame at their depth
+                // can exceed (its largest semi-axis is at most the Frobenius norm of the
+                // footprint and blur), so that only the rest pay for the footprint's root and
+                // decomposition. Where the cone grows from its apex the frame is a scaling
+                // (ApexEllipse), cheaper than the test.
+                const bool bounded = space.bounds.circle().finite;
+                std::size_t kept = 0;
+                for (std::size_t i = 0; i < count; ++i) {
+                    const ClusterCull& cull = batch[i];
+                    if (bounded && !space.apex.covers(cull.t)) {
+                        const float largest_reach = (per_vertex ? kCullMargin : 1.0f) * units *
+                                                    space.bounds.largest_semi_axis(cull.t);
+                        if (spheres_near_axis(m_geometry.triangle_bounds(cull.cluster),
+                                              m_geometry.triangle_cluster(cull.cluster).count,
+                                              space.ray, largest_reach, l.t_min, l.t_max) == 0) {
+                            continue;
+                        }
+                    }
+                    batch[kept++] = cull;
+                }
+                count = kept;
                 // The node's one footprint would be wrong across it: one per cluster instead
                 // (a cluster is a few triangles across).
                 for (std::size_t i = 0; i < count; ++i) {
