@@ -315,6 +315,16 @@ TEST(ConeBounds, RespectsTheDepthRangeAndThePinholeApex) {
         cone_may_touch_sphere({1e12f, Vec2f(1e11f, 0.0f), 1.0f}, cone, 8.0f, 0.0f, 0.0f, 2e12f));
 }
 
+/// A blur (an area light's, an aperture's) of random start and increment, entries up to `scale`.
+void add_random_blur(FootprintCone& cone, std::mt19937_64& rng, float scale) {
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    Mat2f start;
+    Mat2f incr;
+    start << unit(rng), unit(rng), unit(rng), unit(rng);
+    incr << unit(rng), unit(rng), unit(rng), unit(rng);
+    cone.add_blur(scale * start, scale * incr);
+}
+
 TEST(ConeBounds, PerConeFrobeniusBoundHoldsAndStaysTight) {
     // The per-cone quadratic must bound ‖F(t)‖_F² + ‖B(t)‖_F² from above at every depth, also
     // where a focusing cone narrows to a point and the quadratic's terms cancel, and exceed it
@@ -324,11 +334,7 @@ TEST(ConeBounds, PerConeFrobeniusBoundHoldsAndStaysTight) {
     for (int i = 0; i < 20000; ++i) {
         Case c = random_case(rng);
         if (i % 2 == 1) {
-            Mat2f start;
-            Mat2f incr;
-            start << unit(rng), unit(rng), unit(rng), unit(rng);
-            incr << unit(rng), unit(rng), unit(rng), unit(rng);
-            c.cone.add_blur(0.01f * start, 0.01f * incr);
+            add_random_blur(c.cone, rng, 0.01f);
         }
         const ConeSphereTest test(c.cone, c.max_anisotropy);
         const auto exact = [&](double t) {
@@ -372,12 +378,8 @@ TEST(ConeBounds, NoFrameAtADepthReachesBeyondTheLargestSemiAxisBound) {
     for (int i = 0; i < 20000; ++i) {
         Case c = random_case(rng);
         if (i % 2 == 1) {
-            Mat2f start;
-            Mat2f incr;
-            start << unit(rng), unit(rng), unit(rng), unit(rng);
-            incr << unit(rng), unit(rng), unit(rng), unit(rng);
-            const float blur = std::pow(10.0f, 2.0f * unit(rng)) * c.cone.incr_dev.norm();
-            c.cone.add_blur(blur * start, blur * incr);
+            add_random_blur(c.cone, rng,
+                            std::pow(10.0f, 2.0f * unit(rng)) * c.cone.incr_dev.norm());
         }
         const ConeSphereTest test(c.cone, c.max_anisotropy);
         ASSERT_TRUE(test.circle().finite);
