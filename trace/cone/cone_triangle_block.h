@@ -56,26 +56,14 @@ struct TriangleCull {
 };
 
 /// Whether the triangle placed as `in_ray`, mapped as `mapped` into cull.frame, lies wholly
-/// before t_min or after t_max, or wholly beyond the square on one side: the traversal's test
-/// of one triangle. A NaN vertex takes no part in a minimum or maximum (std::min's choice).
+/// before t_min or after t_max, or wholly beyond the square on one side (misses_square): the
+/// traversal's test of one triangle. A NaN vertex never makes it reject by itself (the minima and
+/// maxima take std::min's and std::max's choice of operand).
 inline bool triangle_culled(const TriangleInRayFrame& in_ray,
                             const TriangleInRayFrame::Mapped& mapped, const TriangleCull& cull) {
-    if (std::max({in_ray.t[0], in_ray.t[1], in_ray.t[2]}) < cull.t_min ||
-        std::min({in_ray.t[0], in_ray.t[1], in_ray.t[2]}) > cull.t_max) {
-        return true;
-    }
-    for (const Eigen::Array4f* y : {&mapped.x, &mapped.y}) {
-        float lo = std::numeric_limits<float>::infinity();
-        float hi = -lo;
-        for (Eigen::Index i = 0; i < 3; ++i) {
-            lo = std::min(lo, (*y)[i]);
-            hi = std::max(hi, (*y)[i]);
-        }
-        if (lo > cull.reach || hi < -cull.reach) {
-            return true;
-        }
-    }
-    return false;
+    return std::max({in_ray.t[0], in_ray.t[1], in_ray.t[2]}) < cull.t_min ||
+           std::min({in_ray.t[0], in_ray.t[1], in_ray.t[2]}) > cull.t_max ||
+           misses_square(mapped.points(), cull.reach);
 }
 
 /// Bit k of `candidates` kept where member k of `block` may pass triangle_culled: cleared only
