@@ -3,6 +3,7 @@
 #include "common/footprint/point_weight.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace mrt {
@@ -80,6 +81,11 @@ bool ConeSphereTest::circle_may_touch(const SphereInRayFrame& sphere, float wide
     if (near > far) {
         return false;  // wholly before t_min or after t_max
     }
+    // The axis within the sphere's disc: the reach below is at least the radius.
+    const float offset_squared = sphere.offset.squaredNorm();
+    if (offset_squared <= sphere.radius * sphere.radius) {
+        return true;
+    }
     // |Fᵀe| ≤ ‖F‖_F along every e, so the ellipse's reach is at most
     // ρ·√(‖F‖_F²·(1 + 1/A²) + w²), convex in t: largest at one end. Most spheres a cone is
     // tested against are its node's siblings well off the axis; they fall here without a
@@ -89,7 +95,7 @@ bool ConeSphereTest::circle_may_touch(const SphereInRayFrame& sphere, float wide
         std::sqrt(kPointWeightClipExponent *
                   (frobenius * (1.0f + m_inverse_anisotropy_squared) + widening * widening)) +
         sphere.radius;
-    return !(sphere.offset.squaredNorm() > circle_reach * circle_reach);
+    return !(offset_squared > circle_reach * circle_reach);
 }
 
 bool ConeSphereTest::rectangle_may_touch(const SphereInRayFrame& sphere, float widening,
@@ -104,15 +110,26 @@ bool ConeSphereTest::rectangle_may_touch(const SphereInRayFrame& sphere, float w
     }
     // Along a unit e the clip ellipse reaches at most ρ·√(|Gᵀe|² + ‖G‖_F²/A² + w²) (the file
     // comment), convex in t: its square is compared, so no root is taken. The sphere misses
-    // when |x·e| − r exceeds it at both ends.
+    // when |x·e| − r exceeds it at both ends. Where the disc holds the axis's projection on
+    // both axes (the sphere around the cone's axis, most of the nodes a cone visits) nothing
+    // can miss, and the footprint's moments are not formed.
+    const std::array<Vec2f, 2> axes{axis, Vec2f(-axis.y(), axis.x())};
+    const std::array<float, 2> beyond{std::abs(sphere.offset.dot(axes[0])) - sphere.radius,
+                                      std::abs(sphere.offset.dot(axes[1])) - sphere.radius};
+    if (!(beyond[0] > 0.0f) && !(beyond[1] > 0.0f)) {
+        return true;
+    }
     const float isotropic_near =
         frobenius_squared(near) * m_inverse_anisotropy_squared + widening * widening;
     const float isotropic_far =
         frobenius_squared(far) * m_inverse_anisotropy_squared + widening * widening;
     const Vec3f m_near = second_moments(near);
     const Vec3f m_far = second_moments(far);
-    const Vec2f perpendicular(-axis.y(), axis.x());
-    for (const Vec2f& e : {axis, perpendicular}) {
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+        if (!(beyond[i] > 0.0f)) {
+            continue;
+        }
+        const Vec2f& e = axes[i];
         const float ee = e.x() * e.x();
         const float ef = 2.0f * e.x() * e.y();
         const float ff = e.y() * e.y();
@@ -120,8 +137,7 @@ bool ConeSphereTest::rectangle_may_touch(const SphereInRayFrame& sphere, float w
         const float along_far = ee * m_far.x() + ef * m_far.y() + ff * m_far.z();
         const float reach_squared = kPointWeightClipExponent * std::max(along_near + isotropic_near,
                                                                         along_far + isotropic_far);
-        const float beyond = std::abs(sphere.offset.dot(e)) - sphere.radius;
-        if (beyond > 0.0f && beyond * beyond > reach_squared) {
+        if (beyond[i] * beyond[i] > reach_squared) {
             return false;
         }
     }
