@@ -34,10 +34,18 @@ MappedCone map_cone(const ConeRay& ray, const Affine3f& to_object) {
     return mapped;
 }
 
+Mat3f similarity_turn(const Affine3f& to_object, float scale) {
+    return to_object.linear() / scale;
+}
+
 MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, float scale) {
+    return map_cone_similar(ray, to_object, similarity_turn(to_object, scale), scale);
+}
+
+MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, const Mat3f& turn,
+                            float scale) {
     MappedCone mapped;
     mapped.scale = scale;
-    const Mat3f turn = to_object.linear() / scale;
     ConeRay& to = mapped.ray;
     to.origin = to_object * ray.origin;
     to.direction = turn * ray.direction;

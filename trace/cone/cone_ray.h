@@ -72,6 +72,12 @@ MappedCone map_cone(const ConeRay& ray, const Affine3f& to_object);
 /// footprints scale, with no new basis and no 2×2 products. The frame differs from map_cone's
 /// by a turn about the axis, which no consumer of a footprint's ellipse sees.
 MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, float scale);
+/// The same with the map's turn Q = similarity_turn(to_object, scale) given: an instance's
+/// turn is the same for every cone that enters it.
+MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, const Mat3f& turn,
+                            float scale);
+/// The orthogonal part Q of a similarity `to_object` of scale `scale`: its linear part / scale.
+Mat3f similarity_turn(const Affine3f& to_object, float scale);
 
 struct ConePointHit {
     /// Depth along the ray of the surface the point stands for: where the axis meets the

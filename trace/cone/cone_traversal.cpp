@@ -92,6 +92,9 @@ float grazing_tangent(float normal_dot_direction, float limit) {
 struct ConeSpace {
     ConeRay ray;
     float world_per_t = 1.0f;  ///< World distance along the ray per unit of this space's t.
+    /// The walk's depth range [t_min, t_max] in this space's t, set where the walk enters it.
+    float t_min = 0.0f;
+    float t_max = 0.0f;
     /// The space this one was entered from (nullptr: the world), and the instance's map from
     /// that space's normals and to this space's vectors.
     const ConeSpace* parent = nullptr;
@@ -141,12 +144,12 @@ float start_radius(const FootprintCone& cone) {
 
 /// The cone of `parent` (in a group's space) in the space of an instance's object.
 /// `object_scale` is the instance's ConeInstanceBound::object_scale: where it is a similarity,
-/// its cone and sphere test are the parent's turned and scaled.
-ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f& normal_to_group,
-                float object_scale, float max_anisotropy) {
+/// its cone and sphere test are the parent's turned (by `turn`, similarity_turn) and scaled.
+ConeSpace enter(const ConeSpace& parent, const Affine3f& to_object, const Mat3f& turn,
+                const Mat3f& normal_to_group, float object_scale, float max_anisotropy) {
     ConeSpace space;
     const bool similar = object_scale > 0.0f;
-    const MappedCone mapped = similar ? map_cone_similar(parent.ray, to_object, object_scale)
+    const MappedCone mapped = similar ? map_cone_similar(parent.ray, to_object, turn, object_scale)
                                       : map_cone(parent.ray, to_object);
     space.ray = mapped.ray;
     space.start = start_radius(space.ray.cone);
@@ -198,6 +201,8 @@ class Walk {
     void object(ConeSpace& space, std::uint32_t index, float weight) {
         const HierarchyObject& object = m_view.objects[index];
         space.object = index;
+        space.t_min = m_t_min / space.world_per_t;
+        space.t_max = m_t_max / space.world_per_t;
         visit(space, object.first_node, weight, Level::ByFootprint, Circle::Untested);
     }
 
@@ -233,8 +238,8 @@ class Walk {
         if (m_stop != nullptr && m_stop->load(std::memory_order_relaxed)) {
             return false;
         }
-        look.t_min = m_t_min / space.world_per_t;
-        look.t_max = m_t_max / space.world_per_t;
+        look.t_min = space.t_min;
+        look.t_max = space.t_max;
         look.sphere = space.ray.sphere_of(to_vec(node.sphere_centre), node.sphere_radius);
         const FootprintCone& cone = space.ray.cone;
         const float widening = kPointKernelRadius * spacing(node);
@@ -315,9 +320,9 @@ class Walk {
             const auto count = static_cast<std::uint32_t>(std::popcount(node.child_mask));
             m_stats.spheres_tested += count;
             std::array<float, kConeChildCount> nearest;
-            const std::uint32_t near = children_near_cone(
-                m_geometry.children(index), count, space.ray, space.bounds,
-                m_t_min / space.world_per_t, m_t_max / space.world_per_t, nearest);
+            const std::uint32_t near =
+                children_near_cone(m_geometry.children(index), count, space.ray, space.bounds,
+                                   space.t_min, space.t_max, nearest);
             // Those the cone may touch, nearest first (ties in the children's order).
             std::array<std::uint32_t, kConeChildCount> order;
             int kept = 0;
@@ -340,9 +345,9 @@ class Walk {
                 continue;
             }
             ++m_stats.instances_entered;
-            ConeSpace inner =
-                enter(space, m_geometry.to_object(i), m_geometry.normal_to_group(i),
-                      m_geometry.instance_bound(i).object_scale, m_options.max_anisotropy);
+            ConeSpace inner = enter(
+                space, m_geometry.to_object(i), m_geometry.turn(i), m_geometry.normal_to_group(i),
+                m_geometry.instance_bound(i).object_scale, m_options.max_anisotropy);
             inner.id = ++m_spaces;
             object(inner, m_view.instances[i].object, weight);
         }
@@ -357,8 +362,7 @@ class Walk {
         }
         ++m_stats.spheres_tested;
         SphereInRayFrame sphere;
-        if (!may_enter(bound, space.ray, space.bounds, m_t_min / space.world_per_t,
-                       m_t_max / space.world_per_t, sphere)) {
+        if (!may_enter(bound, space.ray, space.bounds, space.t_min, space.t_max, sphere)) {
             return false;
         }
         return !behind_opaque(space, sphere);
@@ -1045,6 +1049,7 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                            const TextureSampler& textures)
     : m_view(view), m_scene(scene), m_textures(textures), m_closed(m_view) {
     m_to_object.reserve(m_view.instances.size());
+    m_turn.reserve(m_view.instances.size());
     m_normal_to_group.reserve(m_view.instances.size());
     for (const HierarchyInstance& instance : m_view.instances) {
         const Affine3f to_group = instance.affine();
@@ -1056,6 +1061,9 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
         m_instance_bounds.push_back(mrt::instance_bound(
             to_vec(root.sphere_centre), root.sphere_radius,
             kPointKernelRadius * root.side / static_cast<float>(m_view.grid), to_group));
+        const float scale = m_instance_bounds.back().object_scale;
+        m_turn.push_back(scale > 0.0f ? similarity_turn(m_to_object.back(), scale)
+                                      : Mat3f::Identity());
     }
     m_node_clusters.resize(m_view.nodes.size());
     m_child_block.assign(m_view.nodes.size(), kNoChildren);

@@ -164,6 +164,9 @@ class ConeGeometry {
 
     /// Instance i's map from its group's space into its object's.
     const Affine3f& to_object(std::uint32_t i) const { return m_to_object[i]; }
+    /// Where instance i's map is a similarity, its orthogonal part (similarity_turn); the
+    /// identity elsewhere.
+    const Mat3f& turn(std::uint32_t i) const { return m_turn[i]; }
     /// Instance i's map of object-space normals into group space (the inverse transpose of its
     /// linear part; unnormalised results).
     const Mat3f& normal_to_group(std::uint32_t i) const { return m_normal_to_group[i]; }
@@ -211,6 +214,7 @@ class ConeGeometry {
     const Scene& m_scene;
     const TextureSampler& m_textures;
     std::vector<Affine3f> m_to_object;
+    std::vector<Mat3f> m_turn;
     std::vector<Mat3f> m_normal_to_group;
     std::vector<ConeInstanceBound> m_instance_bounds;
     ClosedSurfaces m_closed;
