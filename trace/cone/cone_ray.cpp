@@ -38,10 +38,6 @@ Mat3f similarity_turn(const Affine3f& to_object, float scale) {
     return to_object.linear() / scale;
 }
 
-MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, float scale) {
-    return map_cone_similar(ray, to_object, similarity_turn(to_object, scale), scale);
-}
-
 MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, const Mat3f& turn,
                             float scale) {
     MappedCone mapped;

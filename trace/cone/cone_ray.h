@@ -70,10 +70,8 @@ MappedCone map_cone(const ConeRay& ray, const Affine3f& to_object);
 /// map_cone for a similarity `to_object` of scale `scale` (its linear part is scale times an
 /// orthogonal matrix Q): the cone's frame turns with the map (u, v → Q·u, Q·v) and its
 /// footprints scale, with no new basis and no 2×2 products. The frame differs from map_cone's
-/// by a turn about the axis, which no consumer of a footprint's ellipse sees.
-MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, float scale);
-/// The same with the map's turn Q = similarity_turn(to_object, scale) given: an instance's
-/// turn is the same for every cone that enters it.
+/// by a turn about the axis, which no consumer of a footprint's ellipse sees. `turn` is Q,
+/// similarity_turn(to_object, scale): an instance's is the same for every cone entering it.
 MappedCone map_cone_similar(const ConeRay& ray, const Affine3f& to_object, const Mat3f& turn,
                             float scale);
 /// The orthogonal part Q of a similarity `to_object` of scale `scale`: its linear part / scale.

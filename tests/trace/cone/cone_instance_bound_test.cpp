@@ -98,7 +98,9 @@ TEST(ConeInstanceBound, SimilarMapTurnsAndScalesTheConeAsTheGeneralMapDoes) {
             instance_bound(Vec3f::Zero(), 1.0f, 0.0f, instance.to_group);
         ASSERT_GT(bound.object_scale, 0.0f);
         const MappedCone general = map_cone(ray, instance.to_object);
-        const MappedCone similar = map_cone_similar(ray, instance.to_object, bound.object_scale);
+        const MappedCone similar = map_cone_similar(
+            ray, instance.to_object, similarity_turn(instance.to_object, bound.object_scale),
+            bound.object_scale);
         EXPECT_NEAR(similar.scale, general.scale, 1e-5f * general.scale);
         EXPECT_LT((similar.ray.origin - general.ray.origin).norm(),
                   1e-5f * (general.ray.origin.norm() + general.scale));
