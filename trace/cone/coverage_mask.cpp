@@ -1,0 +1,131 @@
+#include "trace/cone/coverage_mask.h"
+
+#include "common/footprint/point_weight.h"
+
+#include <cmath>
+#include <cstring>
+#include <numbers>
+
+namespace mrt {
+
+namespace {
+
+CoverageSamples make_coverage_samples() {
+    // Mass inside radius r of exp(−|y|²)/π is 1 − exp(−r²); the clip keeps 1 − kPointWeightClip.
+    const double kept = 1.0 - static_cast<double>(kPointWeightClip);
+    const double golden_angle = std::numbers::pi * (3.0 - std::sqrt(5.0));
+    CoverageSamples samples{};
+    for (int i = 0; i < kCoverageSamples; ++i) {
+        const double mass = kept * (i + 0.5) / kCoverageSamples;
+        const double radius = std::sqrt(-std::log1p(-mass));
+        const double angle = golden_angle * i;
+        samples.x[static_cast<std::size_t>(i)] = static_cast<float>(radius * std::cos(angle));
+        samples.y[static_cast<std::size_t>(i)] = static_cast<float>(radius * std::sin(angle));
+    }
+    return samples;
+}
+
+/// The mask of 64 flags, each 0 or 1: eight at a time, one multiplication gathers a word's eight
+/// low bits into its top byte. The loops that fill the flags then vectorise, where setting one
+/// bit per iteration would not.
+CoverageMask pack(const std::array<std::uint8_t, kCoverageSamples>& flags) {
+    CoverageMask mask = 0;
+    for (std::size_t group = 0; group < kCoverageSamples / 8; ++group) {
+        std::uint64_t word = 0;
+        std::memcpy(&word, flags.data() + 8 * group, sizeof word);
+        mask |= ((word * 0x0102040810204080ull) >> 56) << (8 * group);
+    }
+    return mask;
+}
+
+/// A directed edge's side test. Its function is evaluated from the lexicographically smaller
+/// end whichever way the edge runs, so that the two directions of one edge see exactly opposite
+/// values on every sample (negation is exact), and of the two exactly one owns the samples on
+/// the line (the top-left rule of rasterisers).
+struct Edge {
+    float origin_x, origin_y, dx, dy;
+    bool owns;
+
+    Edge(const Vec2f& from, const Vec2f& to)
+        : dx(to.x() - from.x()),
+          dy(to.y() - from.y()),
+          owns(dy > 0.0f || (dy == 0.0f && dx > 0.0f)) {
+        const bool forward = from.x() < to.x() || (from.x() == to.x() && from.y() < to.y());
+        origin_x = forward ? from.x() : to.x();
+        origin_y = forward ? from.y() : to.y();
+    }
+
+    bool degenerate() const { return dx == 0.0f && dy == 0.0f; }
+
+    /// Whether (x, y) lies to the left of the edge, or on it where the edge owns its line.
+    bool holds(float x, float y) const {
+        const float value = dx * (y - origin_y) - dy * (x - origin_x);
+        return (value > 0.0f) | (owns & (value == 0.0f));
+    }
+};
+
+}  // namespace
+
+const CoverageSamples& coverage_samples() {
+    static const CoverageSamples samples = make_coverage_samples();
+    return samples;
+}
+
+CoverageMask edge_mask(const Vec2f& from, const Vec2f& to) {
+    const Edge edge(from, to);
+    if (edge.degenerate()) {
+        return 0;
+    }
+    const CoverageSamples& s = coverage_samples();
+    alignas(64) std::array<std::uint8_t, kCoverageSamples> inside;
+    for (std::size_t k = 0; k < kCoverageSamples; ++k) {
+        inside[k] = static_cast<std::uint8_t>(edge.holds(s.x[k], s.y[k]));
+    }
+    return pack(inside);
+}
+
+CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c) {
+    if (!a.allFinite() || !b.allFinite() || !c.allFinite()) {
+        return 0;
+    }
+    const double orientation =
+        (static_cast<double>(b.x()) - a.x()) * (static_cast<double>(c.y()) - a.y()) -
+        (static_cast<double>(b.y()) - a.y()) * (static_cast<double>(c.x()) - a.x());
+    if (orientation == 0.0) {
+        return 0;
+    }
+    // Counter-clockwise, so that the inside is to the left of every edge.
+    const Vec2f& second = orientation > 0.0 ? b : c;
+    const Vec2f& third = orientation > 0.0 ? c : b;
+    const Edge e0(a, second);
+    const Edge e1(second, third);
+    const Edge e2(third, a);
+    const CoverageSamples& s = coverage_samples();
+    alignas(64) std::array<std::uint8_t, kCoverageSamples> inside;
+    for (std::size_t k = 0; k < kCoverageSamples; ++k) {
+        const float x = s.x[k];
+        const float y = s.y[k];
+        inside[k] = static_cast<std::uint8_t>(e0.holds(x, y) & e1.holds(x, y) & e2.holds(x, y));
+    }
+    return pack(inside);
+}
+
+CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form) {
+    if (!centre.allFinite() || !form.allFinite()) {
+        return 0;
+    }
+    const float xx = form(0, 0);
+    const float xy = 0.5f * (form(0, 1) + form(1, 0));
+    const float yy = form(1, 1);
+    const CoverageSamples& s = coverage_samples();
+    alignas(64) std::array<std::uint8_t, kCoverageSamples> inside;
+    for (std::size_t k = 0; k < kCoverageSamples; ++k) {
+        const float dx = s.x[k] - centre.x();
+        const float dy = s.y[k] - centre.y();
+        const float q = xx * dx * dx + 2.0f * xy * dx * dy + yy * dy * dy;
+        inside[k] = static_cast<std::uint8_t>(q <= 1.0f);
+    }
+    return pack(inside);
+}
+
+}  // namespace mrt
