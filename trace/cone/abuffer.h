@@ -12,10 +12,19 @@
 // fragment[i].far < fragment[i + 1].near, so the first fragment whose far end reaches a new
 // interval is the only one that can overlap it from the front, and a merge can only ever spill
 // into the fragments behind it (the cascade).
+//
+// With coverage masks (Compositing::Mask, the A-buffer of Carpenter 1984 that the paper's §7
+// proposes; trace/cone/coverage_mask.h) each fragment also carries the samples of the cone's
+// cross-section that its surface covers, OR'ed over what merges into it, and the composite
+// gives each sample to the nearest fragment that covers it: a fragment's share of the cone is
+// the weight of the samples it takes, not min(1, weight). Coverage that two fragments share
+// then counts once, and coverage that they split adds up.
 
 #include "common/math/math.h"
 #include "common/system/check.h"
+#include "common/system/enum_names.h"
 #include "common/system/fields.h"
+#include "trace/cone/coverage_mask.h"
 
 #include <algorithm>
 #include <array>
@@ -65,6 +74,9 @@ struct Fragment {
     /// Σ w_i·t_i, ray parameter × weight: the weighted mean depth is weighted_depth / weight.
     float weighted_depth = 0.0f;
     A sums{};  ///< Σ w_i·attributes_i, as accumulated by A::add and A::merge.
+    /// The samples of the cone's cross-section the merged intersections cover (mask
+    /// compositing; 0 where the buffer composites by alpha).
+    CoverageMask mask = 0;
 
     /// The weighted mean depth of the intersections, ray parameter t (where to shade).
     float depth() const { return weighted_depth / weight; }
@@ -120,6 +132,17 @@ inline std::ostream& operator<<(std::ostream& os, const ABufferStats& s) {
     return print_fields(os, "ABufferStats", s);
 }
 
+/// How an A-buffer turns its fragments into a pixel.
+enum class Compositing : std::uint8_t {
+    Alpha,  ///< §4.4: each fragment's alpha is min(1, weight sum), blended front to back.
+    Mask,   ///< Each sample of the fragments' coverage masks is taken by the nearest fragment.
+};
+
+inline constexpr EnumNames<Compositing, 2> kCompositingNames{{{
+    {Compositing::Alpha, "alpha"},
+    {Compositing::Mask, "mask"},
+}}};
+
 /// The outcome of front-to-back blending: Σ_i T_i·α_i·c_i and the transmittance left after the
 /// last fragment, T = Π_i (1 − α_i), for the background or the ray's continuation.
 struct CompositeResult {
@@ -153,11 +176,19 @@ class ABuffer {
     using FragmentType = Fragment<A>;
     static constexpr int kCapacity = Capacity;
 
-    /// Empties the buffer and its statistics for the next ray (O(1): the storage stays).
+    /// Empties the buffer and its statistics for the next ray (O(1): the storage stays). The
+    /// compositing mode stays.
     void clear() {
         m_count = 0;
         m_stats = {};
     }
+
+    /// How opaque_depth() and composite() read the fragments; set on an empty buffer.
+    void set_compositing(Compositing compositing) {
+        MRT_DCHECK(m_count == 0);
+        m_compositing = compositing;
+    }
+    Compositing compositing() const { return m_compositing; }
 
     /// Inserts an intersection at ray parameter t with depth tolerance interval
     /// [t − tolerance, t + tolerance] (tolerance ≥ 0 in units of t, proportional to the node's
@@ -170,10 +201,12 @@ class ABuffer {
     ///
     /// `attributes` is an A, or anything A::add accepts: a contribution that computes an
     /// expensive attribute only when the fragment keeps it (the shape operator of a cone's
-    /// largest-weight contributor, trace/cone/cone_surface.h).
+    /// largest-weight contributor, trace/cone/cone_surface.h). `mask` is the samples the
+    /// intersection covers, for mask compositing.
     template <class Contribution = A>
     requires requires(A& sums, const Contribution& c, float w) { sums.add(c, w); }
-    void insert(float t, float tolerance, float weight, const Contribution& attributes) {
+    void insert(float t, float tolerance, float weight, const Contribution& attributes,
+                CoverageMask mask = 0) {
         MRT_DCHECK(ordered());
         if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
             !std::isfinite(tolerance)) {
@@ -189,13 +222,13 @@ class ABuffer {
         if (i < m_count && m_fragments[i].near <= hi) {
             ++m_stats.merged;
             FragmentType& f = m_fragments[i];
-            accumulate(f, t, weight, attributes);
+            accumulate(f, t, weight, attributes, mask);
             f.near = std::min(f.near, lo);
             f.far = std::max(f.far, hi);
             cascade(i);
             return;
         }
-        if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes)) {
+        if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes, mask)) {
             return;
         }
         FragmentType& f = open_slot(i);
@@ -204,7 +237,8 @@ class ABuffer {
         f.weight = 0.0f;
         f.weighted_depth = 0.0f;
         f.sums = A{};
-        accumulate(f, t, weight, attributes);
+        f.mask = 0;
+        accumulate(f, t, weight, attributes, mask);
     }
 
     /// The depth beyond which nothing can show any more: walking front to back with
@@ -219,7 +253,20 @@ class ABuffer {
     /// average. Anything starting at or before it (in particular what overlaps the opaque
     /// fragment and would merge into it) must still be inserted. Insertions in front can only
     /// move it forward. O(size()).
+    ///
+    /// With masks: the far end of the fragment whose mask completes the union of the masks
+    /// in front of it and its own.
     float opaque_depth() const {
+        if (m_compositing == Compositing::Mask) {
+            CoverageMask covered = 0;
+            for (int i = 0; i < m_count; ++i) {
+                covered |= m_fragments[i].mask;
+                if (covered == kFullCoverage) {
+                    return m_fragments[i].far;
+                }
+            }
+            return std::numeric_limits<float>::infinity();
+        }
         float transmittance = 1.0f;
         for (int i = 0; i < m_count; ++i) {
             transmittance *= 1.0f - m_fragments[i].alpha();
@@ -236,17 +283,48 @@ class ABuffer {
     /// fragment.sums.averaged(fragment.weight) — the weighted mean the shader needs — and
     /// `fragment` gives the weight, the interval and the mean depth (where to shade).
     /// Fragments behind an exactly opaque one are not shaded.
+    ///
+    /// With masks: Σ_i s_i·c_i where s_i is the share of the samples fragment i covers that no
+    /// fragment in front of it does, and T the share no fragment covers; fragments that take
+    /// no sample are not shaded.
+    ///
+    /// A shade that also takes a float is given the fragment's share of the cone besides: α_i,
+    /// or s_i with masks (what a cone continuing from the fragment stands for).
     template <class Shade>
-    requires std::convertible_to<std::invoke_result_t<Shade&, const A&, const FragmentType&>, Rgb>
-        CompositeResult composite(Shade&& shade)
+    requires std::convertible_to<std::invoke_result_t<Shade&, const A&, const FragmentType&>,
+                                 Rgb> ||
+        std::convertible_to<std::invoke_result_t<Shade&, const A&, const FragmentType&, float>, Rgb>
+            CompositeResult composite(Shade&& shade)
     const {
+        const auto colour_of = [&](const FragmentType& f, float share) -> Rgb {
+            const A averaged = f.sums.averaged(f.weight);
+            if constexpr (std::is_invocable_v<Shade&, const A&, const FragmentType&, float>) {
+                return shade(averaged, f, share);
+            } else {
+                return shade(averaged, f);
+            }
+        };
         MRT_DCHECK(ordered());
         CompositeResult result;
+        if (m_compositing == Compositing::Mask) {
+            CoverageMask taken = 0;
+            for (int i = 0; i < m_count && taken != kFullCoverage; ++i) {
+                const FragmentType& f = m_fragments[i];
+                const CoverageMask own = f.mask & ~taken;
+                if (own == 0) {
+                    continue;
+                }
+                taken |= own;
+                const float share = mask_coverage(own);
+                result.radiance += share * colour_of(f, share);
+            }
+            result.transmittance = 1.0f - mask_coverage(taken);
+            return result;
+        }
         for (int i = 0; i < m_count && result.transmittance > 0.0f; ++i) {
             const FragmentType& f = m_fragments[i];
             const float alpha = f.alpha();
-            const A averaged = f.sums.averaged(f.weight);
-            const Rgb colour = shade(averaged, f);
+            const Rgb colour = colour_of(f, alpha);
             result.radiance += (result.transmittance * alpha) * colour;
             result.transmittance *= 1.0f - alpha;
         }
@@ -288,10 +366,12 @@ class ABuffer {
     }
 
     template <class Contribution>
-    static void accumulate(FragmentType& f, float t, float weight, const Contribution& attributes) {
+    static void accumulate(FragmentType& f, float t, float weight, const Contribution& attributes,
+                           CoverageMask mask) {
         f.sums.add(attributes, weight);
         f.weight += weight;
         f.weighted_depth += weight * t;
+        f.mask |= mask;
     }
 
     /// `into` absorbs `from`'s sums, weights and interval.
@@ -299,6 +379,7 @@ class ABuffer {
         into.sums.merge(from.sums);
         into.weight += from.weight;
         into.weighted_depth += from.weighted_depth;
+        into.mask |= from.mask;
         into.near = std::min(into.near, from.near);
         into.far = std::max(into.far, from.far);
     }
@@ -339,7 +420,7 @@ class ABuffer {
     /// merged.
     template <class Contribution>
     bool make_room(int& i, float lo, float hi, float t, float weight,
-                   const Contribution& attributes) {
+                   const Contribution& attributes, CoverageMask mask) {
         const float opaque = opaque_depth();
         if (lo > opaque) {
             ++m_stats.dropped_insertions;
@@ -379,7 +460,7 @@ class ABuffer {
         }
         // United with a neighbour it stays clear of the other one: no cascade.
         FragmentType& f = gap_front <= gap_back ? m_fragments[i - 1] : m_fragments[i];
-        accumulate(f, t, weight, attributes);
+        accumulate(f, t, weight, attributes, mask);
         f.near = std::min(f.near, lo);
         f.far = std::max(f.far, hi);
         return false;
@@ -387,6 +468,7 @@ class ABuffer {
 
     std::array<FragmentType, Capacity> m_fragments{};
     int m_count = 0;  ///< Fragments in use, [0, Capacity].
+    Compositing m_compositing = Compositing::Alpha;
     ABufferStats m_stats;
 };
 

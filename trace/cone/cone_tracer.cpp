@@ -140,13 +140,17 @@ class ConeTracer {
   public:
     ConeTracer(const ConeGeometry& geometry, const ConeTraversalOptions& options, int max_depth,
                const std::atomic<bool>* stop)
-        : m_scene(geometry.scene()), m_traversal(geometry, options, stop), m_max_depth(max_depth) {}
+        : m_scene(geometry.scene()),
+          m_traversal(geometry, options, stop),
+          m_max_depth(max_depth),
+          m_compositing(options.compositing) {}
 
     enum class Kind { Primary, Secondary };
 
     Rgb radiance(const ConeRay& ray, float t_min, int depth, float weight, Kind kind,
                  ConeWork& work) const {
         ABuffer<ConeSurface> buffer;
+        buffer.set_compositing(m_compositing);
         const auto start = Clock::now();
         ConeTraversalStats& stats =
             kind == Kind::Primary ? work.stats.primary : work.stats.secondary;
@@ -155,9 +159,9 @@ class ConeTracer {
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         (kind == Kind::Primary ? work.stats.primary_seconds : work.stats.secondary_seconds) +=
             seconds;
-        const CompositeResult result =
-            buffer.composite([&](const ConeSurface& surface, const Fragment<ConeSurface>& f) {
-                return shade(surface, f, ray, depth, weight * f.alpha(), work);
+        const CompositeResult result = buffer.composite(
+            [&](const ConeSurface& surface, const Fragment<ConeSurface>& f, float share) {
+                return shade(surface, f, ray, depth, weight * share, work);
             });
         return result.radiance + result.transmittance * m_scene.background;
     }
@@ -370,6 +374,7 @@ class ConeTracer {
             std::min(start_clearance(cone.start_dev, cosine, 0.0f, kShadowSelfIntersectionFactor),
                      0.5f * light.distance);
         ABuffer<ConeOpacity> buffer;
+        buffer.set_compositing(m_compositing);
         const auto start = Clock::now();
         m_traversal.trace(ray, t_min, light.distance * kShadowEndFraction, buffer,
                           work.stats.shadow);
@@ -383,6 +388,7 @@ class ConeTracer {
     const Scene& m_scene;
     ConeTraversal m_traversal;
     int m_max_depth;
+    Compositing m_compositing;
 };
 
 /// Sets a flag after a delay, unless cancelled first: the time guard, which has to stop

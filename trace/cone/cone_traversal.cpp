@@ -832,6 +832,17 @@ class Walk {
                 return;
             }
             ++m_stats.triangles_hit;
+            // In the Gaussian's units at each vertex's own depth, as the weight was computed:
+            // the same sample is the same ray of the cone at every depth.
+            CoverageMask mask = 0;
+            if (m_options.compositing == Compositing::Mask) {
+                const std::array<Vec2f, 3> y =
+                    per_vertex ? std::array<Vec2f, 3>{exact[0].map(vertices[0].offset),
+                                                      exact[1].map(vertices[1].offset),
+                                                      exact[2].map(vertices[2].offset)}
+                               : mapped.points();
+                mask = triangle_mask(y[0], y[1], y[2]);
+            }
             const Vec3f geometric = winding.normalized();
             // The depths a flat surface spans across the footprint.
             const float tolerance =
@@ -840,13 +851,13 @@ class Walk {
             if constexpr (kShade) {
                 const TriangleAtHit at = triangle_at(triangle, p, geometric, *hit);
                 const ConeSurface surface = triangle_surface(space, triangle, at);
-                m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
-                                weight * hit->weight,
-                                ConeSurface::Lazy{
-                                    surface, [&] { return triangle_shape(space, triangle, at); }});
+                m_buffer.insert(
+                    hit->t * space.world_per_t, tolerance * space.world_per_t, weight * hit->weight,
+                    ConeSurface::Lazy{surface, [&] { return triangle_shape(space, triangle, at); }},
+                    mask);
             } else {
                 m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
-                                weight * hit->weight, {});
+                                weight * hit->weight, {}, mask);
             }
         }
     }

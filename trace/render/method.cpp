@@ -19,6 +19,7 @@ constexpr std::array kMethodOnlyOptions = {
     MethodOnlyOption{"node-frames", {Cone, ConeClassic}},
     MethodOnlyOption{"keep-back-faces", {Cone, ConeClassic}},
     MethodOnlyOption{"triangle-weight", {Cone, ConeClassic}},
+    MethodOnlyOption{"abuffer", {Cone, ConeClassic}},
     MethodOnlyOption{"spp", {Whitted, Distributed}, "the cone methods trace one cone per pixel"},
     MethodOnlyOption{"spp-initial", {Distributed}},
     MethodOnlyOption{"spp-max", {Distributed}},

@@ -66,6 +66,7 @@ struct Arguments {
     bool node_frames = false;
     bool keep_back_faces = false;
     std::string triangle_weight = "coverage";
+    std::string abuffer = "alpha";
     mrt::Budgets budgets;
 };
 
@@ -140,6 +141,11 @@ void check_method_options(const CLI::App& app, const Arguments& args) {
             throw CLI::ValidationError(name, mrt::refusal(option));
         }
     }
+    if (args.method == mrt::Method::Cone && args.abuffer == "mask") {
+        throw CLI::ValidationError("--abuffer",
+                                   "mask compositing needs masks of the points, which the cone "
+                                   "method does not make yet: use it with --method cone-classic");
+    }
     if (args.method != mrt::Method::Distributed) {
         return;
     }
@@ -185,6 +191,7 @@ mrt::ConeOptions cone_options(const Arguments& args) {
     cone.traversal.cull_closed_back_faces = !args.keep_back_faces;
     // CLI11 checked the name against the same table.
     cone.traversal.triangle_weight = *mrt::kTriangleWeightNames.find(args.triangle_weight);
+    cone.traversal.compositing = *mrt::kCompositingNames.find(args.abuffer);
     cone.traversal.max_anisotropy = args.max_anisotropy;
     cone.time_budget =
         args.time_budget > 0.0
@@ -450,6 +457,12 @@ int main(int argc, char** argv) {
                    "paper (exp(-(d-1/2)^2) of the closest point's distance, 4.5)")
         ->check(CLI::IsMember(mrt::kTriangleWeightNames.names()))
         ->default_val("coverage");
+    app.add_option("--abuffer", args.abuffer,
+                   "cone methods: alpha (each fragment's alpha is its weight sum, 4.4) or mask "
+                   "(sub-pixel coverage masks: each of 64 rays of the cone is taken by the "
+                   "nearest fragment that covers it; cone-classic only for now)")
+        ->check(CLI::IsMember(mrt::kCompositingNames.names()))
+        ->default_val("alpha");
     mrt::add_budget_option(app, args.budgets);
 
     return mrt::run_tool(

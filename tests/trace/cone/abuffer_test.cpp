@@ -435,6 +435,123 @@ TEST(ABufferOpaqueDepth, IsInfiniteUntilTheAlphaReachesOneThenTheFarEndOfThatFra
 }
 
 // ---------------------------------------------------------------------------------------------
+// Coverage masks
+
+/// The samples of the left or right half of the cross-section (x < 0 or x > 0).
+CoverageMask half_mask(bool left) {
+    const CoverageSamples& s = coverage_samples();
+    CoverageMask mask = 0;
+    for (std::size_t i = 0; i < kCoverageSamples; ++i) {
+        if ((s.x[i] < 0.0f) == left) {
+            mask |= CoverageMask{1} << i;
+        }
+    }
+    return mask;
+}
+
+ABuffer<Surfel> masked_buffer() {
+    ABuffer<Surfel> buffer;
+    buffer.set_compositing(Compositing::Mask);
+    return buffer;
+}
+
+TEST(ABufferMask, ComplementaryHalvesAddUpWhereAlphasWouldLeaveAQuarter) {
+    // Two adjacent triangles at different depths, each over half the cone: weight 0.5 each.
+    const Rgb c1(0.2f, 0.4f, 0.8f), c2(1.0f, 0.5f, 0.0f);
+    const CoverageMask left = half_mask(true);
+    const CoverageMask right = half_mask(false);
+    ASSERT_EQ(left | right, kFullCoverage);
+    ASSERT_EQ(left & right, 0u);
+    const float share_left = mask_coverage(left);
+    ABuffer<Surfel> alpha;
+    ABuffer<Surfel> masked = masked_buffer();
+    for (ABuffer<Surfel>* b : {&alpha, &masked}) {
+        b->insert(1.0f, 0.1f, share_left, surfel(c1[0], c1[1], c1[2], 0, 0), left);
+        b->insert(2.0f, 0.1f, 1.0f - share_left, surfel(c2[0], c2[1], c2[2], 0, 1), right);
+    }
+    const CompositeResult a = alpha.composite(kShadeColour);
+    EXPECT_NEAR(a.transmittance, (1.0f - share_left) * share_left, 1e-6f);  // about a quarter
+    const CompositeResult m = masked.composite(kShadeColour);
+    EXPECT_EQ(m.transmittance, 0.0f);
+    const Rgb expected = share_left * c1 + (1.0f - share_left) * c2;
+    EXPECT_TRUE(((m.radiance - expected).abs() < 1e-6f).all()) << m;
+    EXPECT_FLOAT_EQ(masked.opaque_depth(), 2.1f);
+    EXPECT_EQ(alpha.opaque_depth(), std::numeric_limits<float>::infinity());
+}
+
+TEST(ABufferMask, TheBackOfAThinSolidHidesBehindItsFront) {
+    // Front and back face of a thin solid over the same half of the cone: the half counts once.
+    const Rgb front(1.0f, 0.0f, 0.0f), back(0.0f, 1.0f, 0.0f);
+    const CoverageMask left = half_mask(true);
+    ABuffer<Surfel> masked = masked_buffer();
+    masked.insert(2.0f, 0.1f, 0.5f, surfel(back[0], back[1], back[2], 0, 1), left);
+    masked.insert(1.0f, 0.1f, 0.5f, surfel(front[0], front[1], front[2], 0, 0), left);
+    int shaded = 0;
+    const CompositeResult m = masked.composite([&](const Surfel& s, const Fragment<Surfel>&) {
+        ++shaded;
+        return Rgb(s.colour);
+    });
+    EXPECT_EQ(shaded, 1);  // the back takes no sample and is not shaded
+    EXPECT_FLOAT_EQ(m.transmittance, 1.0f - mask_coverage(left));
+    EXPECT_TRUE(((m.radiance - mask_coverage(left) * front).abs() < 1e-6f).all()) << m;
+    EXPECT_EQ(masked.opaque_depth(), std::numeric_limits<float>::infinity());
+}
+
+TEST(ABufferMask, MergedIntersectionsUniteTheirMasksAndKeepTheirWeightedMeans) {
+    const CoverageMask a = 0x00000000FFFF0000ull;
+    const CoverageMask b = 0x0000FFFF00000000ull;
+    const CoverageMask c = 0xFFFF00000000FFFFull;
+    ABuffer<Surfel> masked = masked_buffer();
+    masked.insert(1.0f, 0.1f, 0.25f, surfel(1, 0, 0, 0, 0), a);
+    masked.insert(1.05f, 0.1f, 0.75f, surfel(0, 1, 0, 0, 1), b);  // overlaps: merges
+    ASSERT_EQ(masked.size(), 1);
+    EXPECT_EQ(masked[0].mask, a | b);
+    // A fragment behind, then an interval bridging both: the cascade unites all three masks.
+    masked.insert(1.5f, 0.1f, 0.5f, surfel(0, 0, 1, 0, 2), c);
+    ASSERT_EQ(masked.size(), 2);
+    masked.insert(1.3f, 0.2f, 0.5f, surfel(0, 0, 1, 0, 3), 0);
+    ASSERT_EQ(masked.size(), 1);
+    EXPECT_EQ(masked[0].mask, kFullCoverage);
+    // The colour is the weighted mean of all four, over the whole cone.
+    const CompositeResult m = masked.composite(kShadeColour);
+    EXPECT_EQ(m.transmittance, 0.0f);
+    EXPECT_TRUE(((m.radiance - Rgb(0.25f, 0.75f, 1.0f) / 2.0f).abs() < 1e-6f).all()) << m;
+}
+
+TEST(ABufferMask, ForcedMergesOfAFullBufferKeepTheirCoverage) {
+    ABuffer<Surfel, 2> masked;
+    masked.set_compositing(Compositing::Mask);
+    masked.insert(1.0f, 0.01f, 0.3f, Surfel{}, 0x1);
+    masked.insert(2.0f, 0.01f, 0.3f, Surfel{}, 0x2);
+    masked.insert(2.1f, 0.01f, 0.3f, Surfel{}, 0x4);  // full: merges with the fragment at 2
+    ASSERT_EQ(masked.size(), 2);
+    EXPECT_EQ(masked.stats().forced_merges, 1u);
+    EXPECT_EQ(masked[0].mask | masked[1].mask, 0x7u);
+    EXPECT_EQ(masked[1].mask, 0x6u);
+}
+
+TEST(ABufferMask, AlphaCompositingIgnoresTheMasks) {
+    // The same insertions with and without masks composite alike by alpha.
+    std::mt19937 random(5);
+    std::uniform_real_distribution<float> depth(1.0f, 5.0f);
+    std::uniform_real_distribution<float> weight(0.05f, 0.8f);
+    ABuffer<Surfel> with;
+    ABuffer<Surfel> without;
+    for (int i = 0; i < 40; ++i) {
+        const float t = depth(random);
+        const float w = weight(random);
+        const Surfel s = surfel(w, 1.0f - w, t / 5.0f, 0, i);
+        with.insert(t, 0.05f, w, s, static_cast<CoverageMask>(random()) << 32 | random());
+        without.insert(t, 0.05f, w, s);
+    }
+    const CompositeResult a = with.composite(kShadeColour);
+    const CompositeResult b = without.composite(kShadeColour);
+    EXPECT_EQ(a.transmittance, b.transmittance);
+    EXPECT_TRUE((a.radiance == b.radiance).all());
+    EXPECT_EQ(with.opaque_depth(), without.opaque_depth());
+}
+
+// ---------------------------------------------------------------------------------------------
 // Overflow and bad input
 
 TEST(ABufferOverflow, MergesTheClosestNeighboursInDepthAndCountsIt) {

@@ -268,6 +268,16 @@ TEST(ConeRender, UniformQuadHasCoverageOneDownToItsTriangles) {
         EXPECT_LE(check.worst_leak, 1e-3);
         EXPECT_LE(check.worst_colour, 0.02);
     }
+    // With coverage masks the triangles around each cone share their edges' samples: every
+    // sample is taken, whatever share of the footprint each triangle holds.
+    ConeOptions masks;
+    masks.traversal.points = false;
+    masks.traversal.compositing = Compositing::Mask;
+    const CoverageCheck check = check_coverage(scene, 48, masks);
+    record("classic_masks_worst_leak", check.worst_leak);
+    EXPECT_GT(check.stats.primary.triangles_hit, 0u);
+    EXPECT_EQ(check.worst_leak, 0.0);
+    EXPECT_LE(check.worst_colour, 0.02);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1039,11 +1049,23 @@ TEST(ConeRender, ThinSolidCoversWhatItsSilhouetteCovers) {
         coverage_of(scene.render(resolution, resolution, classic_both).render.image);
     const double cone = coverage_of(scene.render(resolution, resolution).render.image);
     const double cone_both = coverage_of(scene.render(resolution, resolution, both).render.image);
+    // With coverage masks a branch's back faces hide behind its front faces, and the triangles
+    // side by side add up their halves instead of compounding their alphas.
+    ConeOptions classic_masks = classic;
+    classic_masks.traversal.compositing = Compositing::Mask;
+    ConeOptions classic_masks_both = classic_both;
+    classic_masks_both.traversal.compositing = Compositing::Mask;
+    const double masks =
+        coverage_of(scene.render(resolution, resolution, classic_masks).render.image);
+    const double masks_both =
+        coverage_of(scene.render(resolution, resolution, classic_masks_both).render.image);
     record("reference_coverage", reference);
     record("classic_over_reference", cone_classic / reference);
     record("classic_with_back_faces_over_reference", cone_classic_both / reference);
     record("cone_over_reference", cone / reference);
     record("cone_with_back_faces_over_reference", cone_both / reference);
+    record("classic_masks_over_reference", masks / reference);
+    record("classic_masks_with_back_faces_over_reference", masks_both / reference);
     EXPECT_GT(culled.stats.primary.back_faces_culled, 0u);
     // Measured: triangles 1.11 of the reference's coverage, 2.08 with the back faces; with
     // points (the plant is all closed: its points facing away are skipped too) 1.26 and 2.34,
@@ -1052,6 +1074,9 @@ TEST(ConeRender, ThinSolidCoversWhatItsSilhouetteCovers) {
     EXPECT_NEAR(cone / reference, 1.0, 0.4);
     EXPECT_GT(cone_classic_both, 1.5 * cone_classic);
     EXPECT_GT(cone_both, 1.5 * cone);
+    // Measured with masks: 1.0018 of the reference, with or without the back faces.
+    EXPECT_NEAR(masks / reference, 1.0, 0.05);
+    EXPECT_NEAR(masks_both / masks, 1.0, 0.01);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -216,11 +216,18 @@ TEST(MrtTraceCli, OptionsAMethodDoesNotReadAreRefused) {
             << run.output;
     }
     // The cone methods' own options, and what they refuse.
-    for (const char* args :
-         {"--max-anisotropy 4", "--no-level-blend", "--node-frames", "--triangle-weight paper"}) {
+    for (const char* args : {"--max-anisotropy 4", "--no-level-blend", "--node-frames",
+                             "--triangle-weight paper", "--abuffer mask"}) {
         const TraceRun run = run_trace(base + args);
         EXPECT_EQ(run.exit_code, 2) << args;
         EXPECT_NE(run.output.find("only the cone methods"), std::string::npos) << run.output;
+    }
+    {
+        // Points have no coverage masks yet.
+        const TraceRun run = run_trace(base + "--method cone --abuffer mask");
+        EXPECT_EQ(run.exit_code, 2);
+        EXPECT_NE(run.output.find("cone-classic"), std::string::npos) << run.output;
+        EXPECT_EQ(count_lines(run.output), 1) << run.output;
     }
     {
         const TraceRun run = run_trace(base + "--method cone --spp 4");
