@@ -13,6 +13,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <ostream>
 #include <type_traits>
 
@@ -58,6 +59,13 @@ constexpr float kNearApex = 10.0f;
 constexpr float kCoplanarPoint = 0.1f;
 /// A point's size for the leaving test's distance from the apex, in voxel sides.
 constexpr float kPointSize = 2.0f;
+/// A point's coverage mask is the disc of its area (coverage·h²) widened by this factor: discs
+/// of exactly their area leave gaps at the corners between a lattice's points (a disc of a
+/// square's area does not reach its corners), wider ones overstate silhouettes. Measured at
+/// 160×120 against 256-spp references: 1.25 made every scene of the comparisons better than the
+/// alpha buffer; 1 was better still on the field and the soft shadows, but let the default
+/// scene's spheres show through (display RMSE 0.021 against 0.013); 1.5 the reverse.
+constexpr float kPointDiscScale = 1.25f;
 /// A cone whose direction makes at least this cosine with the inward normal of a closed
 /// surface's primitive enters the solid there (enters_solid).
 constexpr float kEnteringCosine = 0.1f;
@@ -521,7 +529,7 @@ class Walk {
                     const auto k = static_cast<std::size_t>(std::countr_zero(bits));
                     point(space,
                           m_geometry.point_order(cluster.first + static_cast<std::uint32_t>(k)),
-                          frame, lanes, k, h, weight);
+                          frame, lanes, k, h, weight, l, node);
                 }
             }
         }
@@ -552,7 +560,8 @@ class Walk {
     /// Point i of a node of spacing h, lane k of `lanes` (weigh_points: it passed every test
     /// but its weight): weighed and inserted.
     void point(const ConeSpace& space, std::uint32_t i, const PointWeightFrame& frame,
-               const PointLanes& lanes, std::size_t k, float h, float weight) {
+               const PointLanes& lanes, std::size_t k, float h, float weight, const Look& l,
+               const HierarchyNode& node) {
         const float along = lanes.along[k];
         const float hit_weight = point_weight_of_exponent(
             frame, lanes.q[k], along, decode_coverage8(m_view.core[i].coverage));
@@ -567,16 +576,49 @@ class Walk {
         const float tolerance =
             0.5f * h * (1.0f + 0.5f * grazing_tangent(along, kPointToleranceTangent));
         const float t = lanes.t[k];
+        const Vec3f normal(lanes.nx[k], lanes.ny[k], lanes.nz[k]);
+        const CoverageMask mask = m_options.compositing == Compositing::Mask
+                                      ? point_mask(space, i, normal, along, h, l, node)
+                                      : 0;
         if constexpr (kShade) {
-            const Vec3f normal(lanes.nx[k], lanes.ny[k], lanes.nz[k]);
             const ConeSurface surface = point_surface(space, i, normal);
             m_buffer.insert(
                 t * space.world_per_t, tolerance * space.world_per_t, weight * hit_weight,
-                ConeSurface::Lazy{surface, [&] { return point_shape(space, i, normal, surface); }});
+                ConeSurface::Lazy{surface, [&] { return point_shape(space, i, normal, surface); }},
+                mask);
         } else {
             m_buffer.insert(t * space.world_per_t, tolerance * space.world_per_t,
-                            weight * hit_weight, {});
+                            weight * hit_weight, {}, mask);
         }
+    }
+
+    /// The samples point i covers: the disc of the area it stands for (its coverage share of a
+    /// voxel face, widened by kPointDiscScale so that a surface's discs leave no gaps between
+    /// them), seen along the cone's axis, in the Gaussian's units of the node's footprint.
+    CoverageMask point_mask(const ConeSpace& space, std::uint32_t i, const Vec3f& normal,
+                            float along, float h, const Look& l, const HierarchyNode& node) const {
+        const float coverage = decode_coverage8(m_view.core[i].coverage);
+        const float radius = kPointDiscScale * h * std::sqrt(coverage / std::numbers::pi_v<float>);
+        const float cosine = std::abs(along);
+        if (!(radius > 0.0f) || !(cosine > 0.0f)) {
+            return 0;
+        }
+        const Vec3f position = point_position(node, m_view.grid, m_view.core[i], m_view.offset[i]);
+        const VertexInRayFrame at = space.ray.frame_of(position);
+        // The disc seen along the axis: radius ρ across the normal's direction m in the u/v
+        // plane, ρ·|n·d| along it; its quadratic form there is (I − m·mᵀ + m·mᵀ/cos²)/ρ².
+        Vec2f m(normal.dot(space.ray.cone.u), normal.dot(space.ray.cone.v));
+        const float m_length = m.norm();
+        m = m_length > 0.0f ? Vec2f(m / m_length) : Vec2f::UnitX();
+        const Mat2f disc =
+            (Mat2f::Identity() + (1.0f / (cosine * cosine) - 1.0f) * m * m.transpose()) /
+            (radius * radius);
+        // y = S·x with S = (F·Fᵀ)^(−1/2), as GaussianFrame::map: x = S⁻¹·y, form S⁻ᵀ·disc·S⁻¹.
+        const SymmetricEigen2& e = l.ellipse;
+        const Mat2f root = std::sqrt(e.major) * e.major_axis * e.major_axis.transpose() +
+                           std::sqrt(e.minor) * e.minor_axis * e.minor_axis.transpose();
+        const GaussianFrame g = GaussianFrame::of_ellipse(e);
+        return ellipse_mask(g.map(at.offset), root * disc * root);
     }
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {

@@ -59,10 +59,9 @@ struct ConeTraversalOptions {
     bool points = true;
     /// Blend each chosen level with the next finer one (see the file comment).
     bool blend_levels = true;
-    /// Alpha: the paper's A-buffer. Mask: each triangle is inserted with the samples of the
-    /// cone's cross-section it covers (trace/cone/coverage_mask.h), for a buffer compositing
-    /// by masks; points have no masks yet, so only classic cone tracing (points = false) may
-    /// ask for it.
+    /// Alpha: the paper's A-buffer. Mask: each triangle and point is inserted with the samples
+    /// of the cone's cross-section it covers (trace/cone/coverage_mask.h), for a buffer
+    /// compositing by masks.
     Compositing compositing = Compositing::Alpha;
     /// Weigh triangles with the node's one footprint (§5.2's faster version) instead of each
     /// vertex's own. Measured on the default scene it leaves seams of a few per cent of alpha

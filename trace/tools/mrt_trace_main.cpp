@@ -141,11 +141,6 @@ void check_method_options(const CLI::App& app, const Arguments& args) {
             throw CLI::ValidationError(name, mrt::refusal(option));
         }
     }
-    if (args.method == mrt::Method::Cone && args.abuffer == "mask") {
-        throw CLI::ValidationError("--abuffer",
-                                   "mask compositing needs masks of the points, which the cone "
-                                   "method does not make yet: use it with --method cone-classic");
-    }
     if (args.method != mrt::Method::Distributed) {
         return;
     }
@@ -460,7 +455,7 @@ int main(int argc, char** argv) {
     app.add_option("--abuffer", args.abuffer,
                    "cone methods: alpha (each fragment's alpha is its weight sum, 4.4) or mask "
                    "(sub-pixel coverage masks: each of 64 rays of the cone is taken by the "
-                   "nearest fragment that covers it; cone-classic only for now)")
+                   "nearest fragment that covers it)")
         ->check(CLI::IsMember(mrt::kCompositingNames.names()))
         ->default_val("alpha");
     mrt::add_budget_option(app, args.budgets);

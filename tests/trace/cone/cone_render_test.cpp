@@ -278,6 +278,13 @@ TEST(ConeRender, UniformQuadHasCoverageOneDownToItsTriangles) {
     EXPECT_GT(check.stats.primary.triangles_hit, 0u);
     EXPECT_EQ(check.worst_leak, 0.0);
     EXPECT_LE(check.worst_colour, 0.02);
+    // The points' discs, widened by kPointDiscScale, close the gaps between them.
+    masks.traversal.points = true;
+    const CoverageCheck points = check_coverage(scene, 48, masks);
+    record("cone_masks_worst_leak", points.worst_leak);
+    EXPECT_GT(points.stats.primary.points_hit, 0u);
+    EXPECT_LE(points.worst_leak, 1e-3);
+    EXPECT_LE(points.worst_colour, 0.02);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1059,6 +1066,10 @@ TEST(ConeRender, ThinSolidCoversWhatItsSilhouetteCovers) {
         coverage_of(scene.render(resolution, resolution, classic_masks).render.image);
     const double masks_both =
         coverage_of(scene.render(resolution, resolution, classic_masks_both).render.image);
+    ConeOptions cone_masks;
+    cone_masks.traversal.compositing = Compositing::Mask;
+    const double points_masks =
+        coverage_of(scene.render(resolution, resolution, cone_masks).render.image);
     record("reference_coverage", reference);
     record("classic_over_reference", cone_classic / reference);
     record("classic_with_back_faces_over_reference", cone_classic_both / reference);
@@ -1066,6 +1077,7 @@ TEST(ConeRender, ThinSolidCoversWhatItsSilhouetteCovers) {
     record("cone_with_back_faces_over_reference", cone_both / reference);
     record("classic_masks_over_reference", masks / reference);
     record("classic_masks_with_back_faces_over_reference", masks_both / reference);
+    record("cone_masks_over_reference", points_masks / reference);
     EXPECT_GT(culled.stats.primary.back_faces_culled, 0u);
     // Measured: triangles 1.11 of the reference's coverage, 2.08 with the back faces; with
     // points (the plant is all closed: its points facing away are skipped too) 1.26 and 2.34,

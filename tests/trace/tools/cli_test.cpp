@@ -223,13 +223,6 @@ TEST(MrtTraceCli, OptionsAMethodDoesNotReadAreRefused) {
         EXPECT_NE(run.output.find("only the cone methods"), std::string::npos) << run.output;
     }
     {
-        // Points have no coverage masks yet.
-        const TraceRun run = run_trace(base + "--method cone --abuffer mask");
-        EXPECT_EQ(run.exit_code, 2);
-        EXPECT_NE(run.output.find("cone-classic"), std::string::npos) << run.output;
-        EXPECT_EQ(count_lines(run.output), 1) << run.output;
-    }
-    {
         const TraceRun run = run_trace(base + "--method cone --spp 4");
         EXPECT_EQ(run.exit_code, 2);
         EXPECT_NE(run.output.find("one cone per pixel"), std::string::npos) << run.output;
