@@ -427,6 +427,20 @@ class Walk {
                                size + kNearApex * space.start);
     }
 
+    /// The node's footprint as points' masks need it: the map into the Gaussian's units that
+    /// the triangles' vertices use (GaussianFrame::map, y = S·x with S = (F·Fᵀ)^(−1/2)), and
+    /// its inverse S⁻¹ = (F·Fᵀ)^(1/2), which carries a disc's quadratic form there. Once per
+    /// node, not per point.
+    struct PointMaskFrame {
+        GaussianFrame map;
+        Mat2f root;
+
+        explicit PointMaskFrame(const SymmetricEigen2& e)
+            : map(GaussianFrame::of_ellipse(e)),
+              root(std::sqrt(e.major) * e.major_axis * e.major_axis.transpose() +
+                   std::sqrt(e.minor) * e.minor_axis * e.minor_axis.transpose()) {}
+    };
+
     void points(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
         const HierarchyNode& node = m_view.nodes[index];
         if (!(weight > 0.0f)) {
@@ -437,6 +451,10 @@ class Walk {
         m_stats.level_weight += weight;
         const float h = spacing(node);
         const PointWeightFrame frame = point_weight_frame(l.footprint, h);
+        const std::optional<PointMaskFrame> masks =
+            m_options.compositing == Compositing::Mask
+                ? std::optional<PointMaskFrame>(std::in_place, l.ellipse)
+                : std::nullopt;
         const Vec3f origin = to_vec(node.origin);
         // The widening adds (β·h)² to both eigenvalues.
         const float widening = kPointKernelRadius * h;
@@ -529,7 +547,7 @@ class Walk {
                     const auto k = static_cast<std::size_t>(std::countr_zero(bits));
                     point(space,
                           m_geometry.point_order(cluster.first + static_cast<std::uint32_t>(k)),
-                          frame, lanes, k, h, weight, l, node);
+                          frame, lanes, k, h, weight, masks ? &*masks : nullptr, node);
                 }
             }
         }
@@ -560,11 +578,11 @@ class Walk {
     /// Point i of a node of spacing h, lane k of `lanes` (weigh_points: it passed every test
     /// but its weight): weighed and inserted.
     void point(const ConeSpace& space, std::uint32_t i, const PointWeightFrame& frame,
-               const PointLanes& lanes, std::size_t k, float h, float weight, const Look& l,
-               const HierarchyNode& node) {
+               const PointLanes& lanes, std::size_t k, float h, float weight,
+               const PointMaskFrame* masks, const HierarchyNode& node) {
         const float along = lanes.along[k];
-        const float hit_weight = point_weight_of_exponent(
-            frame, lanes.q[k], along, decode_coverage8(m_view.core[i].coverage));
+        const float coverage = decode_coverage8(m_view.core[i].coverage);
+        const float hit_weight = point_weight_of_exponent(frame, lanes.q[k], along, coverage);
         if (!(hit_weight > 0.0f)) {
             return;
         }
@@ -577,9 +595,8 @@ class Walk {
             0.5f * h * (1.0f + 0.5f * grazing_tangent(along, kPointToleranceTangent));
         const float t = lanes.t[k];
         const Vec3f normal(lanes.nx[k], lanes.ny[k], lanes.nz[k]);
-        const CoverageMask mask = m_options.compositing == Compositing::Mask
-                                      ? point_mask(space, i, normal, along, h, l, node)
-                                      : 0;
+        const CoverageMask mask =
+            masks != nullptr ? point_mask(space, i, normal, along, coverage, h, *masks, node) : 0;
         if constexpr (kShade) {
             const ConeSurface surface = point_surface(space, i, normal);
             m_buffer.insert(
@@ -596,8 +613,8 @@ class Walk {
     /// voxel face, widened by kPointDiscScale so that a surface's discs leave no gaps between
     /// them), seen along the cone's axis, in the Gaussian's units of the node's footprint.
     CoverageMask point_mask(const ConeSpace& space, std::uint32_t i, const Vec3f& normal,
-                            float along, float h, const Look& l, const HierarchyNode& node) const {
-        const float coverage = decode_coverage8(m_view.core[i].coverage);
+                            float along, float coverage, float h, const PointMaskFrame& masks,
+                            const HierarchyNode& node) const {
         const float radius = kPointDiscScale * h * std::sqrt(coverage / std::numbers::pi_v<float>);
         const float cosine = std::abs(along);
         if (!(radius > 0.0f) || !(cosine > 0.0f)) {
@@ -613,12 +630,8 @@ class Walk {
         const Mat2f disc =
             (Mat2f::Identity() + (1.0f / (cosine * cosine) - 1.0f) * m * m.transpose()) /
             (radius * radius);
-        // y = S·x with S = (F·Fᵀ)^(−1/2), as GaussianFrame::map: x = S⁻¹·y, form S⁻ᵀ·disc·S⁻¹.
-        const SymmetricEigen2& e = l.ellipse;
-        const Mat2f root = std::sqrt(e.major) * e.major_axis * e.major_axis.transpose() +
-                           std::sqrt(e.minor) * e.minor_axis * e.minor_axis.transpose();
-        const GaussianFrame g = GaussianFrame::of_ellipse(e);
-        return ellipse_mask(g.map(at.offset), root * disc * root);
+        // x = S⁻¹·y: the form in the Gaussian's units is S⁻ᵀ·disc·S⁻¹ (S⁻¹ symmetric).
+        return ellipse_mask(masks.map.map(at.offset), masks.root * disc * masks.root);
     }
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {
