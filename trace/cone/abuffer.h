@@ -188,7 +188,6 @@ class ABuffer {
         MRT_DCHECK(m_count == 0);
         m_compositing = compositing;
     }
-    Compositing compositing() const { return m_compositing; }
 
     /// Inserts an intersection at ray parameter t with depth tolerance interval
     /// [t − tolerance, t + tolerance] (tolerance ≥ 0 in units of t, proportional to the node's
