@@ -28,6 +28,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <concepts>
 #include <cstdint>
@@ -253,13 +254,18 @@ class ABuffer {
     /// fragment and would merge into it) must still be inserted. Insertions in front can only
     /// move it forward. O(size()).
     ///
-    /// With masks: the far end of the fragment whose mask completes the union of the masks
-    /// in front of it and its own.
+    /// With masks: the far end of the fragment whose mask (its holes closed, close_holes)
+    /// completes the union of the masks in front of it and its own.
     float opaque_depth() const {
         if (m_compositing == Compositing::Mask) {
             CoverageMask covered = 0;
             for (int i = 0; i < m_count; ++i) {
-                covered |= m_fragments[i].mask;
+                const CoverageMask mask = m_fragments[i].mask;
+                // Closing holes cannot complete a union that misses more than a sample's
+                // neighbourhood's worth: skip it there (it is called for every node).
+                covered |= std::popcount(covered | mask) + kSampleNeighbours >= kCoverageSamples
+                               ? close_holes(mask)
+                               : mask;
                 if (covered == kFullCoverage) {
                     return m_fragments[i].far;
                 }
@@ -283,9 +289,9 @@ class ABuffer {
     /// `fragment` gives the weight, the interval and the mean depth (where to shade).
     /// Fragments behind an exactly opaque one are not shaded.
     ///
-    /// With masks: Σ_i s_i·c_i where s_i is the share of the samples fragment i covers that no
-    /// fragment in front of it does, and T the share no fragment covers; fragments that take
-    /// no sample are not shaded.
+    /// With masks: Σ_i s_i·c_i where s_i is the share of the samples fragment i covers (its
+    /// mask with its holes closed, close_holes) that no fragment in front of it does, and T the
+    /// share no fragment covers; fragments that take no sample are not shaded.
     ///
     /// A shade that also takes a float is given the fragment's share of the cone besides: α_i,
     /// or s_i with masks (what a cone continuing from the fragment stands for).
@@ -309,7 +315,7 @@ class ABuffer {
             CoverageMask taken = 0;
             for (int i = 0; i < m_count && taken != kFullCoverage; ++i) {
                 const FragmentType& f = m_fragments[i];
-                const CoverageMask own = f.mask & ~taken;
+                const CoverageMask own = close_holes(f.mask) & ~taken;
                 if (own == 0) {
                     continue;
                 }

@@ -60,12 +60,15 @@ constexpr float kCoplanarPoint = 0.1f;
 /// A point's size for the leaving test's distance from the apex, in voxel sides.
 constexpr float kPointSize = 2.0f;
 /// A point's coverage mask is the disc of its area (coverage·h²) widened by this factor: discs
-/// of exactly their area leave gaps at the corners between a lattice's points (a disc of a
-/// square's area does not reach its corners), wider ones overstate silhouettes. Measured at
-/// 160×120 against 256-spp references: 1.25 made every scene of the comparisons better than the
-/// alpha buffer; 1 was better still on the field and the soft shadows, but let the default
-/// scene's spheres show through (display RMSE 0.021 against 0.013); 1.5 the reverse.
-constexpr float kPointDiscScale = 1.25f;
+/// of exactly their area leave holes at the corners between a lattice's points (a disc of a
+/// square's area does not reach its corners), and more where a surface runs along a layer of
+/// voxels and two coincident points share its area; wider ones overstate silhouettes and thin
+/// features. With the holes closed (close_holes) and each level of a blend on its own samples
+/// (SampleRange), 1.3 keeps every comparison scene better than the alpha buffer, the bare plant
+/// at 1.10 of the reference's coverage; narrower discs let the default scene's spheres show
+/// through, wider ones widen the plant (docs/cone-tracer.md, "Each level of a blend on its own
+/// samples", has the table).
+constexpr float kPointDiscScale = 1.3f;
 /// A cone whose direction makes at least this cosine with the inward normal of a closed
 /// surface's primitive enters the solid there (enters_solid).
 constexpr float kEnteringCosine = 0.1f;
@@ -206,12 +209,12 @@ class Walk {
           m_t_min(t_min),
           m_t_max(t_max) {}
 
-    void object(ConeSpace& space, std::uint32_t index, float weight) {
+    void object(ConeSpace& space, std::uint32_t index, float weight, SampleRange samples) {
         const HierarchyObject& object = m_view.objects[index];
         space.object = index;
         space.t_min = m_t_min / space.world_per_t;
         space.t_max = m_t_max / space.world_per_t;
-        visit(space, object.first_node, weight, Level::ByFootprint, Circle::Untested);
+        visit(space, object.first_node, weight, samples, Level::ByFootprint, Circle::Untested);
     }
 
   private:
@@ -291,17 +294,19 @@ class Walk {
     };
 
     /// Steps 2 and 3 at one node.
-    void visit(const ConeSpace& space, std::uint32_t index, float weight, Level level,
-               Circle circle) {
+    /// `samples`: the samples of the cone this subtree's masks may cover (SampleRange), as
+    /// `weight` is its share of the weights.
+    void visit(const ConeSpace& space, std::uint32_t index, float weight, SampleRange samples,
+               Level level, Circle circle) {
         const HierarchyNode& node = m_view.nodes[index];
         Look l;
         if (!look(space, node, circle, l)) {
             return;
         }
-        triangles(space, index, l, weight);
+        triangles(space, index, l, weight, samples);
         if (m_options.points && node.point_count > 0) {
             if (level == Level::Finer) {
-                points(space, index, l, weight);
+                points(space, index, l, weight, samples);
                 return;
             }
             const float h = spacing(node);
@@ -310,19 +315,21 @@ class Walk {
                 const float coarse = m_options.blend_levels
                                          ? std::clamp(std::log2(min_diameter / h), 0.0f, 1.0f)
                                          : 1.0f;
-                points(space, index, l, weight * coarse);
+                const auto [coarse_samples, finer_samples] = samples.split(coarse);
+                points(space, index, l, weight * coarse, coarse_samples);
                 if (coarse < 1.0f) {
-                    below(space, index, weight * (1.0f - coarse), Level::Finer);
+                    below(space, index, weight * (1.0f - coarse), finer_samples, Level::Finer);
                 }
                 return;
             }
         }
-        below(space, index, weight, Level::ByFootprint);
+        below(space, index, weight, samples, Level::ByFootprint);
     }
 
     /// The children, nearest first (early termination culls more behind a near surface), and
     /// the instances a group node holds.
-    void below(const ConeSpace& space, std::uint32_t index, float weight, Level level) {
+    void below(const ConeSpace& space, std::uint32_t index, float weight, SampleRange samples,
+               Level level) {
         const HierarchyNode& node = m_view.nodes[index];
         if (node.child_mask != 0) {
             const auto count = static_cast<std::uint32_t>(std::popcount(node.child_mask));
@@ -343,8 +350,8 @@ class Walk {
                 order[static_cast<std::size_t>(i)] = k;
             }
             for (int i = 0; i < kept; ++i) {
-                visit(space, node.first_child + order[static_cast<std::size_t>(i)], weight, level,
-                      Circle::Passed);
+                visit(space, node.first_child + order[static_cast<std::size_t>(i)], weight, samples,
+                      level, Circle::Passed);
             }
         }
         for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
@@ -357,7 +364,7 @@ class Walk {
                 space, m_geometry.to_object(i), m_geometry.turn(i), m_geometry.normal_to_group(i),
                 m_geometry.instance_bound(i).object_scale, m_options.max_anisotropy);
             inner.id = ++m_spaces;
-            object(inner, m_view.instances[i].object, weight);
+            object(inner, m_view.instances[i].object, weight, samples);
         }
     }
 
@@ -434,14 +441,17 @@ class Walk {
     struct PointMaskFrame {
         GaussianFrame map;
         Mat2f root;
+        CoverageMask samples;  ///< The samples the node's level may cover (SampleRange).
 
-        explicit PointMaskFrame(const SymmetricEigen2& e)
+        PointMaskFrame(const SymmetricEigen2& e, CoverageMask level_samples)
             : map(GaussianFrame::of_ellipse(e)),
               root(std::sqrt(e.major) * e.major_axis * e.major_axis.transpose() +
-                   std::sqrt(e.minor) * e.minor_axis * e.minor_axis.transpose()) {}
+                   std::sqrt(e.minor) * e.minor_axis * e.minor_axis.transpose()),
+              samples(level_samples) {}
     };
 
-    void points(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
+    void points(const ConeSpace& space, std::uint32_t index, const Look& l, float weight,
+                SampleRange samples) {
         const HierarchyNode& node = m_view.nodes[index];
         if (!(weight > 0.0f)) {
             return;
@@ -453,7 +463,7 @@ class Walk {
         const PointWeightFrame frame = point_weight_frame(l.footprint, h);
         const std::optional<PointMaskFrame> masks =
             m_options.compositing == Compositing::Mask
-                ? std::optional<PointMaskFrame>(std::in_place, l.ellipse)
+                ? std::optional<PointMaskFrame>(std::in_place, l.ellipse, samples.mask())
                 : std::nullopt;
         const Vec3f origin = to_vec(node.origin);
         // The widening adds (β·h)² to both eigenvalues.
@@ -631,7 +641,8 @@ class Walk {
             (Mat2f::Identity() + (1.0f / (cosine * cosine) - 1.0f) * m * m.transpose()) /
             (radius * radius);
         // x = S⁻¹·y: the form in the Gaussian's units is S⁻ᵀ·disc·S⁻¹ (S⁻¹ symmetric).
-        return ellipse_mask(masks.map.map(at.offset), masks.root * disc * masks.root);
+        return masks.samples &
+               ellipse_mask(masks.map.map(at.offset), masks.root * disc * masks.root);
     }
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {
@@ -674,7 +685,8 @@ class Walk {
         return shape_to_world(shape, normal, space);
     }
 
-    void triangles(const ConeSpace& space, std::uint32_t index, const Look& l, float weight) {
+    void triangles(const ConeSpace& space, std::uint32_t index, const Look& l, float weight,
+                   SampleRange samples) {
         const HierarchyNode& node = m_view.nodes[index];
         if (node.triangle_count == 0 || !(weight > 0.0f)) {
             return;
@@ -800,7 +812,8 @@ class Walk {
                      kept != 0; kept &= kept - 1) {
                     const auto k = static_cast<std::uint32_t>(std::countr_zero(kept));
                     triangle(space, m_geometry.triangle_order(cluster.first + k),
-                             vertices.vertices(k), l, per_vertex, vertex_cull, cull.radius, weight);
+                             vertices.vertices(k), l, per_vertex, vertex_cull, cull.radius, weight,
+                             samples);
                 }
             }
         }
@@ -816,7 +829,7 @@ class Walk {
     /// `p` are the triangle's vertices, `cull` its cheap rejections (triangles_within_cull's).
     void triangle(const ConeSpace& space, std::uint32_t triangle, const std::array<Vec3f, 3>& p,
                   const Look& l, bool per_vertex, const TriangleCull& cull, float radius,
-                  float weight) {
+                  float weight, SampleRange samples) {
         {
             const TriangleInRayFrame in_ray(space.ray, p);
             // The vertices in the cull's frame: culled with it (a margin wider than the
@@ -896,7 +909,7 @@ class Walk {
                                                       exact[1].map(vertices[1].offset),
                                                       exact[2].map(vertices[2].offset)}
                                : mapped.points();
-                mask = triangle_mask(y[0], y[1], y[2]);
+                mask = samples.mask() & triangle_mask(y[0], y[1], y[2]);
             }
             const Vec3f geometric = winding.normalized();
             // The depths a flat surface spans across the footprint.
@@ -1254,7 +1267,7 @@ void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffe
     world.bounds = ConeSphereTest(ray.cone, m_options.max_anisotropy);
     world.apex = ApexEllipse::of(ray.cone, m_options.max_anisotropy);
     Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max);
-    walk.object(world, m_geometry.view().world_object, 1.0f);
+    walk.object(world, m_geometry.view().world_object, 1.0f, SampleRange{});
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,

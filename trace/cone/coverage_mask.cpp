@@ -2,6 +2,7 @@
 
 #include "common/footprint/point_weight.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <numbers>
@@ -64,7 +65,70 @@ struct Edge {
     }
 };
 
+/// ranked[k]: the samples of ranks below k, rank(i) being i's six bits reversed.
+constexpr std::array<CoverageMask, kCoverageSamples + 1> make_ranked_masks() {
+    static_assert(kCoverageSamples == 64, "ranks are six-bit reversals");
+    std::array<CoverageMask, kCoverageSamples + 1> ranked{};
+    for (int rank = 0; rank < kCoverageSamples; ++rank) {
+        int sample = rank;
+        ranked[static_cast<std::size_t>(rank + 1)] =
+            ranked[static_cast<std::size_t>(rank)] | (CoverageMask{1} << sample);
+    }
+    return ranked;
+}
+
+constexpr std::array<CoverageMask, kCoverageSamples + 1> kRankedMasks = make_ranked_masks();
+
+/// neighbours[i]: sample i's kSampleNeighbours nearest samples.
+std::array<CoverageMask, kCoverageSamples> make_neighbours(const CoverageSamples& s) {
+    std::array<CoverageMask, kCoverageSamples> neighbours{};
+    for (std::size_t i = 0; i < kCoverageSamples; ++i) {
+        std::array<std::pair<float, std::size_t>, kCoverageSamples - 1> by_distance;
+        std::size_t n = 0;
+        for (std::size_t j = 0; j < kCoverageSamples; ++j) {
+            if (j != i) {
+                const float dx = s.x[j] - s.x[i];
+                const float dy = s.y[j] - s.y[i];
+                by_distance[n++] = {dx * dx + dy * dy, j};
+            }
+        }
+        std::partial_sort(by_distance.begin(), by_distance.begin() + kSampleNeighbours,
+                          by_distance.end());
+        for (int k = 0; k < kSampleNeighbours; ++k) {
+            neighbours[i] |= CoverageMask{1} << by_distance[static_cast<std::size_t>(k)].second;
+        }
+    }
+    return neighbours;
+}
+
 }  // namespace
+
+CoverageMask close_holes(CoverageMask mask) {
+    static const std::array<CoverageMask, kCoverageSamples> neighbours =
+        make_neighbours(coverage_samples());
+    CoverageMask closed = mask;
+    for (CoverageMask missing = ~mask; missing != 0; missing &= missing - 1) {
+        const int i = std::countr_zero(missing);
+        // At most kSampleNeighbours − kClosingNeighbours = 1 neighbour missing: no popcount,
+        // which this build's baseline instruction set lacks.
+        const CoverageMask missing_neighbours = neighbours[static_cast<std::size_t>(i)] & ~mask;
+        if ((missing_neighbours & (missing_neighbours - 1)) == 0) {
+            closed |= CoverageMask{1} << i;
+        }
+    }
+    return closed;
+}
+
+CoverageMask SampleRange::mask() const {
+    return kRankedMasks[last] & ~kRankedMasks[first];
+}
+
+std::pair<SampleRange, SampleRange> SampleRange::split(float fraction) const {
+    const float share = std::isfinite(fraction) ? std::clamp(fraction, 0.0f, 1.0f) : 0.0f;
+    const auto middle = static_cast<std::uint8_t>(
+        first + static_cast<int>(std::lround(share * static_cast<float>(last - first))));
+    return {SampleRange{first, middle}, SampleRange{middle, last}};
+}
 
 const CoverageSamples& coverage_samples() {
     static const CoverageSamples samples = make_coverage_samples();

@@ -497,6 +497,26 @@ TEST(ABufferMask, TheBackOfAThinSolidHidesBehindItsFront) {
     EXPECT_EQ(masked.opaque_depth(), std::numeric_limits<float>::infinity());
 }
 
+TEST(ABufferMask, HolesInASurfacesMaskDoNotShowWhatLiesBehind) {
+    // A surface whose points' discs leave one sample uncovered, over a bright one: the hole is
+    // closed (close_holes), nothing of the back shows, and the front counts as opaque.
+    const CoverageMask holed = kFullCoverage & ~(CoverageMask{1} << 37);
+    ABuffer<Surfel> masked = masked_buffer();
+    masked.insert(1.0f, 0.1f, 1.0f, surfel(0.2f, 0.2f, 0.2f, 0, 0), holed);
+    masked.insert(3.0f, 0.1f, 1.0f, surfel(10.0f, 10.0f, 10.0f, 0, 1), kFullCoverage);
+    const CompositeResult m =
+        masked.composite([](const Surfel& s, const Fragment<Surfel>&) { return Rgb(s.colour); });
+    EXPECT_FLOAT_EQ(m.transmittance, 0.0f);
+    EXPECT_TRUE(((m.radiance - Rgb::Constant(0.2f)).abs() < 1e-6f).all()) << m;
+    EXPECT_FLOAT_EQ(masked.opaque_depth(), 1.1f);
+    // An edge is not a hole: half a cone stays half.
+    ABuffer<Surfel> half = masked_buffer();
+    half.insert(1.0f, 0.1f, 0.5f, surfel(0.2f, 0.2f, 0.2f, 0, 0), half_mask(true));
+    const CompositeResult h =
+        half.composite([](const Surfel& s, const Fragment<Surfel>&) { return Rgb(s.colour); });
+    EXPECT_NEAR(h.transmittance, 1.0f - mask_coverage(half_mask(true)), 1.5f / 64.0f);
+}
+
 TEST(ABufferMask, MergedIntersectionsUniteTheirMasksAndKeepTheirWeightedMeans) {
     const CoverageMask a = 0x00000000FFFF0000ull;
     const CoverageMask b = 0x0000FFFF00000000ull;
