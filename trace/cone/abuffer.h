@@ -184,11 +184,15 @@ class ABuffer {
         m_stats = {};
     }
 
-    /// How opaque_depth() and composite() read the fragments; set on an empty buffer.
-    void set_compositing(Compositing compositing) {
+    /// How opaque_depth() and composite() read the fragments, and what the masks' samples
+    /// stand for (the traversal makes the masks in that pattern); set on an empty buffer.
+    void set_compositing(Compositing compositing, SamplePattern pattern = SamplePattern::Gaussian) {
         MRT_DCHECK(m_count == 0);
         m_compositing = compositing;
+        m_pattern = pattern;
     }
+
+    SamplePattern sample_pattern() const { return m_pattern; }
 
     /// Inserts an intersection at ray parameter t with depth tolerance interval
     /// [t − tolerance, t + tolerance] (tolerance ≥ 0 in units of t, proportional to the node's
@@ -264,7 +268,7 @@ class ABuffer {
                 // Closing holes cannot complete a union that misses more than a sample's
                 // neighbourhood's worth: skip it there (it is called for every node).
                 covered |= std::popcount(covered | mask) + kSampleNeighbours >= kCoverageSamples
-                               ? close_holes(mask)
+                               ? close_holes(mask, m_pattern)
                                : mask;
                 if (covered == kFullCoverage) {
                     return m_fragments[i].far;
@@ -315,7 +319,7 @@ class ABuffer {
             CoverageMask taken = 0;
             for (int i = 0; i < m_count && taken != kFullCoverage; ++i) {
                 const FragmentType& f = m_fragments[i];
-                const CoverageMask own = close_holes(f.mask) & ~taken;
+                const CoverageMask own = close_holes(f.mask, m_pattern) & ~taken;
                 if (own == 0) {
                     continue;
                 }
@@ -474,6 +478,7 @@ class ABuffer {
     std::array<FragmentType, Capacity> m_fragments{};
     int m_count = 0;  ///< Fragments in use, [0, Capacity].
     Compositing m_compositing = Compositing::Alpha;
+    SamplePattern m_pattern = SamplePattern::Gaussian;
     ABufferStats m_stats;
 };
 

@@ -374,7 +374,9 @@ class ConeTracer {
             std::min(start_clearance(cone.start_dev, cosine, 0.0f, kShadowSelfIntersectionFactor),
                      0.5f * light.distance);
         ABuffer<ConeOpacity> buffer;
-        buffer.set_compositing(m_compositing);
+        // Toward an elliptical light each of the masks' samples is a ray to one point of it.
+        buffer.set_compositing(
+            m_compositing, area != nullptr ? SamplePattern::LightDisc : SamplePattern::Gaussian);
         const auto start = Clock::now();
         m_traversal.trace(ray, t_min, light.distance * kShadowEndFraction, buffer,
                           work.stats.shadow);

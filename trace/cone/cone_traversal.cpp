@@ -641,8 +641,9 @@ class Walk {
             (Mat2f::Identity() + (1.0f / (cosine * cosine) - 1.0f) * m * m.transpose()) /
             (radius * radius);
         // x = S⁻¹·y: the form in the Gaussian's units is S⁻ᵀ·disc·S⁻¹ (S⁻¹ symmetric).
-        return masks.samples &
-               ellipse_mask(masks.map.map(at.offset), masks.root * disc * masks.root);
+        return masks.samples & ellipse_mask(masks.map.map(at.offset),
+                                            masks.root * disc * masks.root,
+                                            m_buffer.sample_pattern());
     }
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {
@@ -909,7 +910,7 @@ class Walk {
                                                       exact[1].map(vertices[1].offset),
                                                       exact[2].map(vertices[2].offset)}
                                : mapped.points();
-                mask = samples.mask() & triangle_mask(y[0], y[1], y[2]);
+                mask = samples.mask() & triangle_mask(y[0], y[1], y[2], m_buffer.sample_pattern());
             }
             const Vec3f geometric = winding.normalized();
             // The depths a flat surface spans across the footprint.

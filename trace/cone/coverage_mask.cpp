@@ -11,14 +11,17 @@ namespace mrt {
 
 namespace {
 
-CoverageSamples make_coverage_samples() {
+CoverageSamples make_coverage_samples(SamplePattern pattern) {
     // Mass inside radius r of exp(−|y|²)/π is 1 − exp(−r²); the clip keeps 1 − kPointWeightClip.
+    // The disc of the Gaussian's variance (½ per axis) has radius √2, area inside r ∝ r².
     const double kept = 1.0 - static_cast<double>(kPointWeightClip);
     const double golden_angle = std::numbers::pi * (3.0 - std::sqrt(5.0));
     CoverageSamples samples{};
     for (int i = 0; i < kCoverageSamples; ++i) {
-        const double mass = kept * (i + 0.5) / kCoverageSamples;
-        const double radius = std::sqrt(-std::log1p(-mass));
+        const double share = (i + 0.5) / kCoverageSamples;
+        const double radius = pattern == SamplePattern::Gaussian
+                                  ? std::sqrt(-std::log1p(-kept * share))
+                                  : std::sqrt(2.0 * share);
         const double angle = golden_angle * i;
         samples.x[static_cast<std::size_t>(i)] = static_cast<float>(radius * std::cos(angle));
         samples.y[static_cast<std::size_t>(i)] = static_cast<float>(radius * std::sin(angle));
@@ -103,9 +106,11 @@ std::array<CoverageMask, kCoverageSamples> make_neighbours(const CoverageSamples
 
 }  // namespace
 
-CoverageMask close_holes(CoverageMask mask) {
-    static const std::array<CoverageMask, kCoverageSamples> neighbours =
-        make_neighbours(coverage_samples());
+CoverageMask close_holes(CoverageMask mask, SamplePattern pattern) {
+    static const std::array<std::array<CoverageMask, kCoverageSamples>, 2> patterns{
+        make_neighbours(coverage_samples(SamplePattern::Gaussian)),
+        make_neighbours(coverage_samples(SamplePattern::LightDisc))};
+    const auto& neighbours = patterns[static_cast<std::size_t>(pattern)];
     CoverageMask closed = mask;
     for (CoverageMask missing = ~mask; missing != 0; missing &= missing - 1) {
         const int i = std::countr_zero(missing);
@@ -130,17 +135,19 @@ std::pair<SampleRange, SampleRange> SampleRange::split(float fraction) const {
     return {SampleRange{first, middle}, SampleRange{middle, last}};
 }
 
-const CoverageSamples& coverage_samples() {
-    static const CoverageSamples samples = make_coverage_samples();
-    return samples;
+const CoverageSamples& coverage_samples(SamplePattern pattern) {
+    static const std::array<CoverageSamples, 2> patterns{
+        make_coverage_samples(SamplePattern::Gaussian),
+        make_coverage_samples(SamplePattern::LightDisc)};
+    return patterns[static_cast<std::size_t>(pattern)];
 }
 
-CoverageMask edge_mask(const Vec2f& from, const Vec2f& to) {
+CoverageMask edge_mask(const Vec2f& from, const Vec2f& to, SamplePattern pattern) {
     const Edge edge(from, to);
     if (edge.degenerate()) {
         return 0;
     }
-    const CoverageSamples& s = coverage_samples();
+    const CoverageSamples& s = coverage_samples(pattern);
     alignas(64) std::array<std::uint8_t, kCoverageSamples> inside;
     for (std::size_t k = 0; k < kCoverageSamples; ++k) {
         inside[k] = static_cast<std::uint8_t>(edge.holds(s.x[k], s.y[k]));
@@ -148,7 +155,7 @@ CoverageMask edge_mask(const Vec2f& from, const Vec2f& to) {
     return pack(inside);
 }
 
-CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c) {
+CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c, SamplePattern pattern) {
     if (!a.allFinite() || !b.allFinite() || !c.allFinite()) {
         return 0;
     }
@@ -164,7 +171,7 @@ CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c) {
     const Edge e0(a, second);
     const Edge e1(second, third);
     const Edge e2(third, a);
-    const CoverageSamples& s = coverage_samples();
+    const CoverageSamples& s = coverage_samples(pattern);
     alignas(64) std::array<std::uint8_t, kCoverageSamples> inside;
     for (std::size_t k = 0; k < kCoverageSamples; ++k) {
         const float x = s.x[k];
@@ -174,14 +181,14 @@ CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c) {
     return pack(inside);
 }
 
-CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form) {
+CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form, SamplePattern pattern) {
     if (!centre.allFinite() || !form.allFinite()) {
         return 0;
     }
     const float xx = form(0, 0);
     const float xy = 0.5f * (form(0, 1) + form(1, 0));
     const float yy = form(1, 1);
-    const CoverageSamples& s = coverage_samples();
+    const CoverageSamples& s = coverage_samples(pattern);
     alignas(64) std::array<std::uint8_t, kCoverageSamples> inside;
     for (std::size_t k = 0; k < kCoverageSamples; ++k) {
         const float dx = s.x[k] - centre.x();

@@ -45,8 +45,21 @@ struct CoverageSamples {
     alignas(64) std::array<float, kCoverageSamples> y;
 };
 
-/// The one pattern every mask refers to.
-const CoverageSamples& coverage_samples();
+/// What the samples of a cone's masks stand for.
+enum class SamplePattern : std::uint8_t {
+    /// Equal mass of the footprint's clipped Gaussian: the rays of a camera, reflected or
+    /// refracted cone (and of a shadow cone toward a point light, its receiver's footprint).
+    Gaussian,
+    /// Equal area of the uniform disc whose variance the Gaussian has (radius √2 in its units):
+    /// a shadow cone toward an elliptical light, whose Gaussian stands for the light's uniform
+    /// ellipse (ConeTracer::visibility), so that each sample is a ray to one point of the light
+    /// and a penumbra is the share of the light an occluder's masks hide.
+    LightDisc,
+};
+
+/// The golden-angle spiral of a pattern: sample i at the radius inside which the pattern's
+/// measure reaches (i + ½)/64 of the whole, at angle i·α.
+const CoverageSamples& coverage_samples(SamplePattern pattern = SamplePattern::Gaussian);
 
 /// The share of the cone's clipped Gaussian that a mask covers.
 inline float mask_coverage(CoverageMask mask) {
@@ -58,15 +71,18 @@ inline float mask_coverage(CoverageMask mask) {
 /// top-left rule of rasterisers): of the two directions of one edge exactly one owns the
 /// samples on it, whichever order the two points come in, so triangles that share an edge take
 /// each sample once. Nothing for from == to.
-CoverageMask edge_mask(const Vec2f& from, const Vec2f& to);
+CoverageMask edge_mask(const Vec2f& from, const Vec2f& to,
+                       SamplePattern pattern = SamplePattern::Gaussian);
 
 /// The samples inside the triangle (a, b, c), of either orientation; nothing for a degenerate
 /// triangle or one with a vertex that is not finite.
-CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c);
+CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c,
+                           SamplePattern pattern = SamplePattern::Gaussian);
 
 /// The samples inside the ellipse {y : (y − centre)ᵀ·form·(y − centre) ≤ 1}, `form` symmetric
 /// positive definite (a surfel's disc as the footprint sees it); nothing where it is not finite.
-CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form);
+CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form,
+                          SamplePattern pattern = SamplePattern::Gaussian);
 
 /// The samples a surface covers, with its holes closed: each sample it misses that is
 /// surrounded — at least kClosingNeighbours of its kSampleNeighbours nearest samples covered —
@@ -77,7 +93,7 @@ CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form);
 /// each disc the smaller), which would let what lies behind show through; a sample beside an
 /// edge or a thin feature has no more than half of its neighbours on the surface and stays
 /// uncovered, so closing the holes does not widen silhouettes as larger discs do.
-CoverageMask close_holes(CoverageMask mask);
+CoverageMask close_holes(CoverageMask mask, SamplePattern pattern = SamplePattern::Gaussian);
 
 inline constexpr int kSampleNeighbours = 6;
 inline constexpr int kClosingNeighbours = 5;

@@ -71,6 +71,43 @@ TEST(CoverageMask, EachSampleStandsForAnEqualShareOfTheClippedGaussian) {
     }
 }
 
+TEST(CoverageMask, LightDiscMasksCoverTheShareOfTheLightAHalfPlaneHides) {
+    // A shadow cone's samples stand for equal areas of the uniform disc of radius √2: a
+    // half-plane beyond y_x = d covers the disc's segment, (θ − sin θ)/(2π) with
+    // θ = 2·acos(d/√2) — the share of the light an occluder's straight edge hides.
+    const double radius = std::sqrt(2.0);
+    const CoverageSamples& s = coverage_samples(SamplePattern::LightDisc);
+    for (std::size_t i = 0; i < kCoverageSamples; ++i) {
+        EXPECT_LT(std::hypot(s.x[i], s.y[i]), radius);
+    }
+    double worst = 0.0;
+    double total = 0.0;
+    int count = 0;
+    for (int o = 0; o <= 80; ++o) {
+        const double d = -1.5 + 3.0 * o / 80.0;
+        const double clamped = std::clamp(d / radius, -1.0, 1.0);
+        const double theta = 2.0 * std::acos(clamped);
+        const double exact = (theta - std::sin(theta)) / (2.0 * std::numbers::pi);
+        for (int a = 0; a < 96; ++a) {
+            const float angle = 2.0f * std::numbers::pi_v<float> * static_cast<float>(a) / 96.0f;
+            const Vec2f from = rotated(Vec2f(static_cast<float>(d), 1.0f), angle);
+            const Vec2f to = rotated(Vec2f(static_cast<float>(d), 0.0f), angle);
+            const double error = std::abs(
+                mask_coverage(edge_mask(from, to, SamplePattern::LightDisc)) - exact);
+            worst = std::max(worst, error);
+            total += error;
+            ++count;
+        }
+    }
+    RecordProperty("light_disc_half_plane_worst", std::to_string(worst));
+    RecordProperty("light_disc_half_plane_mean", std::to_string(total / count));
+    EXPECT_LE(worst, kHalfPlaneMaskError);
+    EXPECT_LE(total / count, 0.01);
+    // Holes close in this pattern too.
+    EXPECT_EQ(close_holes(kFullCoverage & ~(CoverageMask{1} << 40), SamplePattern::LightDisc),
+              kFullCoverage);
+}
+
 TEST(CoverageMask, HalfPlaneMaskAreaIsItsClippedGaussianMass) {
     // Every direction and offset across the clip circle; the mass depends on the offset only.
     double worst = 0.0;
