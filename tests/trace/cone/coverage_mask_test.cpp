@@ -92,8 +92,8 @@ TEST(CoverageMask, LightDiscMasksCoverTheShareOfTheLightAHalfPlaneHides) {
             const float angle = 2.0f * std::numbers::pi_v<float> * static_cast<float>(a) / 96.0f;
             const Vec2f from = rotated(Vec2f(static_cast<float>(d), 1.0f), angle);
             const Vec2f to = rotated(Vec2f(static_cast<float>(d), 0.0f), angle);
-            const double error = std::abs(
-                mask_coverage(edge_mask(from, to, SamplePattern::LightDisc)) - exact);
+            const double error =
+                std::abs(mask_coverage(edge_mask(from, to, SamplePattern::LightDisc)) - exact);
             worst = std::max(worst, error);
             total += error;
             ++count;
