@@ -78,6 +78,9 @@ struct Fragment {
     /// The samples of the cone's cross-section the merged intersections cover (mask
     /// compositing; 0 where the buffer composites by alpha).
     CoverageMask mask = 0;
+    /// Which surface the intersections belong to (mask compositing: the mesh object whose
+    /// tree they came from, or kAnySurface); only intersections of one surface merge.
+    std::uint32_t surface = 0;
 
     /// The weighted mean depth of the intersections, ray parameter t (where to shade).
     float depth() const { return weighted_depth / weight; }
@@ -131,6 +134,16 @@ struct ABufferStats {
 
 inline std::ostream& operator<<(std::ostream& os, const ABufferStats& s) {
     return print_fields(os, "ABufferStats", s);
+}
+
+/// The surface of an intersection that may stand for any surface: a group's points, which
+/// approximate every instance below them (the surfaces of many objects at once). It merges
+/// with whatever it overlaps, as every intersection does with alpha compositing.
+inline constexpr std::uint32_t kAnySurface = std::numeric_limits<std::uint32_t>::max();
+
+/// Whether intersections of surfaces a and b may merge.
+inline bool same_surface(std::uint32_t a, std::uint32_t b) {
+    return a == b || a == kAnySurface || b == kAnySurface;
 }
 
 /// How an A-buffer turns its fragments into a pixel.
@@ -207,10 +220,16 @@ class ABuffer {
     /// expensive attribute only when the fragment keeps it (the shape operator of a cone's
     /// largest-weight contributor, trace/cone/cone_surface.h). `mask` is the samples the
     /// intersection covers, for mask compositing.
+    ///
+    /// With masks, `surface` tells surfaces apart (the object an intersection came from): only
+    /// intersections of one surface merge, so that two surfaces closer than the tolerance — a
+    /// sheet of paper on a desk — stay two fragments and the nearer takes its samples first,
+    /// instead of one fragment of their averaged colour. Fragments of different surfaces may
+    /// then overlap in depth; they are kept in order of their intervals' fronts.
     template <class Contribution = A>
     requires requires(A& sums, const Contribution& c, float w) { sums.add(c, w); }
     void insert(float t, float tolerance, float weight, const Contribution& attributes,
-                CoverageMask mask = 0) {
+                CoverageMask mask = 0, std::uint32_t surface = 0) {
         MRT_DCHECK(ordered());
         if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
             !std::isfinite(tolerance)) {
@@ -221,6 +240,10 @@ class ABuffer {
         tolerance = std::max(tolerance, 0.0f);
         const float lo = t - tolerance;
         const float hi = t + tolerance;
+        if (m_compositing == Compositing::Mask) {
+            insert_surface(t, lo, hi, weight, attributes, mask, surface);
+            return;
+        }
         // The first fragment reaching lo: the fragments before it end before the new interval.
         int i = first_reaching(lo);
         if (i < m_count && m_fragments[i].near <= hi) {
@@ -263,15 +286,19 @@ class ABuffer {
     float opaque_depth() const {
         if (m_compositing == Compositing::Mask) {
             CoverageMask covered = 0;
+            // Fragments of different surfaces overlap: whatever starts behind the far end of
+            // every fragment up to the one completing the union lies behind all of them.
+            float far = -std::numeric_limits<float>::infinity();
             for (int i = 0; i < m_count; ++i) {
                 const CoverageMask mask = m_fragments[i].mask;
+                far = std::max(far, m_fragments[i].far);
                 // Closing holes cannot complete a union that misses more than a sample's
                 // neighbourhood's worth: skip it there (it is called for every node).
                 covered |= std::popcount(covered | mask) + kSampleNeighbours >= kCoverageSamples
                                ? close_holes(mask, m_pattern)
                                : mask;
                 if (covered == kFullCoverage) {
-                    return m_fragments[i].far;
+                    return far;
                 }
             }
             return std::numeric_limits<float>::infinity();
@@ -316,9 +343,18 @@ class ABuffer {
         MRT_DCHECK(ordered());
         CompositeResult result;
         if (m_compositing == Compositing::Mask) {
+            // Nearest first by mean depth: of two overlapping surfaces the one in front.
+            std::array<int, Capacity> order;
+            for (int i = 0; i < m_count; ++i) {
+                int j = i;
+                for (; j > 0 && m_fragments[order[j - 1]].depth() > m_fragments[i].depth(); --j) {
+                    order[j] = order[j - 1];
+                }
+                order[j] = i;
+            }
             CoverageMask taken = 0;
-            for (int i = 0; i < m_count && taken != kFullCoverage; ++i) {
-                const FragmentType& f = m_fragments[i];
+            for (int k = 0; k < m_count && taken != kFullCoverage; ++k) {
+                const FragmentType& f = m_fragments[order[k]];
                 const CoverageMask own = close_holes(f.mask, m_pattern) & ~taken;
                 if (own == 0) {
                     continue;
@@ -355,6 +391,21 @@ class ABuffer {
     /// The invariant every operation keeps (and first_reaching relies on): the fragments in depth
     /// order, each interval ending strictly before the next begins (touching ones are merged).
     bool ordered() const {
+        if (m_compositing == Compositing::Mask) {
+            for (int i = 0; i < m_count; ++i) {
+                if (!(m_fragments[i].near <= m_fragments[i].far) ||
+                    (i > 0 && !(m_fragments[i - 1].near <= m_fragments[i].near))) {
+                    return false;
+                }
+                for (int j = 0; j < i; ++j) {
+                    if (same_surface(m_fragments[j].surface, m_fragments[i].surface) &&
+                        overlaps(m_fragments[j], m_fragments[i].near, m_fragments[i].far)) {
+                        return false;
+                    }
+                }
+            }
+            return m_count >= 0 && m_count <= Capacity;
+        }
         for (int i = 0; i < m_count; ++i) {
             if (!(m_fragments[i].near <= m_fragments[i].far) ||
                 (i > 0 && !(m_fragments[i - 1].far < m_fragments[i].near))) {
@@ -362,6 +413,99 @@ class ABuffer {
             }
         }
         return m_count >= 0 && m_count <= Capacity;
+    }
+
+    static bool overlaps(const FragmentType& f, float lo, float hi) {
+        return f.near <= hi && lo <= f.far;
+    }
+
+    /// insert() with masks: merges into the fragment of the same surface that the interval
+    /// reaches (absorbing the surface's fragments the united interval then reaches), else a
+    /// new fragment in order of fronts; a full buffer drops or evicts behind the opaque depth
+    /// as with alpha, or else merges the intersection into the fragment nearest in depth,
+    /// whatever its surface (its coverage is kept).
+    template <class Contribution>
+    void insert_surface(float t, float lo, float hi, float weight, const Contribution& attributes,
+                        CoverageMask mask, std::uint32_t surface) {
+        int i = 0;
+        while (i < m_count && !(same_surface(m_fragments[i].surface, surface) &&
+                                overlaps(m_fragments[i], lo, hi))) {
+            ++i;
+        }
+        if (i == m_count && m_count == Capacity) {
+            const float opaque = opaque_depth();
+            if (lo > opaque) {
+                ++m_stats.dropped_insertions;
+                m_stats.dropped_weight += weight;
+                return;
+            }
+            if (m_fragments[m_count - 1].near > opaque) {
+                ++m_stats.evicted_fragments;
+                m_stats.dropped_weight += m_fragments[m_count - 1].weight;
+                --m_count;
+            } else {
+                ++m_stats.forced_merges;
+                float nearest = std::numeric_limits<float>::infinity();
+                for (int j = 0; j < m_count; ++j) {
+                    const float gap = std::max(m_fragments[j].near - hi, lo - m_fragments[j].far);
+                    if (gap < nearest) {
+                        nearest = gap;
+                        i = j;
+                    }
+                }
+            }
+        }
+        if (i < m_count) {
+            FragmentType& f = m_fragments[i];
+            if (same_surface(f.surface, surface)) {
+                ++m_stats.merged;
+                // A group's points that merged with one surface's stand for that surface.
+                f.surface = f.surface == kAnySurface ? surface : f.surface;
+            }
+            accumulate(f, t, weight, attributes, mask);
+            f.near = std::min(f.near, lo);
+            f.far = std::max(f.far, hi);
+            // The surface's fragments the united interval reaches, until it reaches no more
+            // (each absorbed one can widen it).
+            for (bool absorbed = true; absorbed;) {
+                absorbed = false;
+                for (int j = m_count - 1; j >= 0; --j) {
+                    FragmentType& into = m_fragments[i];
+                    if (j == i || !same_surface(m_fragments[j].surface, into.surface) ||
+                        !overlaps(m_fragments[j], into.near, into.far)) {
+                        continue;
+                    }
+                    if (into.surface == kAnySurface) {
+                        into.surface = m_fragments[j].surface;
+                    }
+                    absorb(into, m_fragments[j]);
+                    erase(j, 1);
+                    ++m_stats.cascaded;
+                    absorbed = true;
+                    if (j < i) {
+                        --i;
+                    }
+                }
+            }
+            // Its front may have moved forward past others'.
+            for (; i > 0 && m_fragments[i - 1].near > m_fragments[i].near; --i) {
+                std::swap(m_fragments[i - 1], m_fragments[i]);
+            }
+            return;
+        }
+        int slot = 0;
+        while (slot < m_count && m_fragments[slot].near <= lo) {
+            ++slot;
+        }
+        FragmentType& f = open_slot(slot);
+        f.near = lo;
+        f.far = hi;
+        f.weight = 0.0f;
+        f.weighted_depth = 0.0f;
+        f.sums = A{};
+        f.mask = 0;
+        f.surface = surface;
+        accumulate(f, t, weight, attributes, mask);
     }
 
     /// Index of the first fragment with far ≥ lo (size() if none): far increases along the

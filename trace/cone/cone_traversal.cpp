@@ -125,7 +125,10 @@ struct ConeSpace {
     }
     std::uint32_t id = 0;      ///< Unique within one traversal: keys the per-vertex frame cache.
     std::uint32_t object = 0;  ///< The object whose nodes the cone is in.
-    float start = 0.0f;        ///< How far from the apex the cone's rays start (start_radius).
+    /// What its intersections are to the A-buffer (ABuffer::insert): the object where it is a
+    /// mesh, any surface where it is a group.
+    std::uint32_t surface = 0;
+    float start = 0.0f;  ///< How far from the apex the cone's rays start (start_radius).
     /// The sphere tests' view of `ray.cone`, prepared once per space.
     ConeSphereTest bounds;
     /// The footprint's decompositions once for the cone where it grows from its apex.
@@ -212,6 +215,7 @@ class Walk {
     void object(ConeSpace& space, std::uint32_t index, float weight, SampleRange samples) {
         const HierarchyObject& object = m_view.objects[index];
         space.object = index;
+        space.surface = object.kind == HierarchyObjectKind::Mesh ? index : kAnySurface;
         space.t_min = m_t_min / space.world_per_t;
         space.t_max = m_t_max / space.world_per_t;
         visit(space, object.first_node, weight, samples, Level::ByFootprint, Circle::Untested);
@@ -612,10 +616,10 @@ class Walk {
             m_buffer.insert(
                 t * space.world_per_t, tolerance * space.world_per_t, weight * hit_weight,
                 ConeSurface::Lazy{surface, [&] { return point_shape(space, i, normal, surface); }},
-                mask);
+                mask, space.surface);
         } else {
             m_buffer.insert(t * space.world_per_t, tolerance * space.world_per_t,
-                            weight * hit_weight, {}, mask);
+                            weight * hit_weight, {}, mask, space.surface);
         }
     }
 
@@ -923,10 +927,10 @@ class Walk {
                 m_buffer.insert(
                     hit->t * space.world_per_t, tolerance * space.world_per_t, weight * hit->weight,
                     ConeSurface::Lazy{surface, [&] { return triangle_shape(space, triangle, at); }},
-                    mask);
+                    mask, space.surface);
             } else {
                 m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
-                                weight * hit->weight, {}, mask);
+                                weight * hit->weight, {}, mask, space.surface);
             }
         }
     }

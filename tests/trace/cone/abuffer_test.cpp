@@ -550,6 +550,102 @@ TEST(ABufferMask, ForcedMergesOfAFullBufferKeepTheirCoverage) {
     EXPECT_EQ(masked[1].mask, 0x6u);
 }
 
+TEST(ABufferMask, TwoSurfacesCloserThanTheToleranceStayApart) {
+    // A sheet of paper half a millimetre above a desk, both within one tolerance interval:
+    // with alpha they average into one brown fragment; with masks each surface keeps its own
+    // fragment and the paper, in front, takes the samples it covers, in either order of
+    // insertion.
+    const Rgb paper(0.9f, 0.9f, 0.9f), desk(0.4f, 0.2f, 0.1f);
+    const CoverageMask half = half_mask(true);
+    for (const bool paper_first : {true, false}) {
+        ABuffer<Surfel> masked = masked_buffer();
+        const auto insert_paper = [&] {
+            masked.insert(1.0f, 0.01f, 0.5f, surfel(paper[0], paper[1], paper[2], 0, 0), half, 1);
+        };
+        const auto insert_desk = [&] {
+            masked.insert(1.0005f, 0.01f, 1.0f, surfel(desk[0], desk[1], desk[2], 0, 1),
+                          kFullCoverage, 2);
+        };
+        if (paper_first) {
+            insert_paper();
+            insert_desk();
+        } else {
+            insert_desk();
+            insert_paper();
+        }
+        ASSERT_EQ(masked.size(), 2) << masked;
+        const CompositeResult m = masked.composite(kShadeColour);
+        const float share = mask_coverage(half);
+        const Rgb expected = share * paper + (1.0f - share) * desk;
+        EXPECT_TRUE(((m.radiance - expected).abs() < 1e-5f).all()) << m;
+        EXPECT_FLOAT_EQ(m.transmittance, 0.0f);
+        // One surface's intersections still merge.
+        masked.insert(1.002f, 0.01f, 0.5f, surfel(paper[0], paper[1], paper[2], 0, 2), ~half, 1);
+        EXPECT_EQ(masked.size(), 2);
+    }
+}
+
+TEST(ABufferMask, AGroupsPointsMergeWithAnySurface) {
+    // A group's points stand for the surfaces of many objects: they merge with whichever they
+    // overlap, and the fragment they started becomes the surface's that joins it.
+    ABuffer<Surfel> masked = masked_buffer();
+    masked.insert(1.0f, 0.01f, 0.5f, surfel(1, 0, 0, 0, 0), 0x0F, kAnySurface);
+    masked.insert(1.005f, 0.01f, 0.5f, surfel(0, 1, 0, 0, 1), 0xF0, 3);
+    ASSERT_EQ(masked.size(), 1);
+    EXPECT_EQ(masked[0].surface, 3u);
+    EXPECT_EQ(masked[0].mask, 0xFFu);
+    masked.insert(1.01f, 0.01f, 0.5f, surfel(0, 0, 1, 0, 2), 0xF00, 4);  // another surface
+    EXPECT_EQ(masked.size(), 2);
+    masked.insert(1.02f, 0.01f, 0.5f, surfel(0, 0, 1, 0, 3), 0xF000, kAnySurface);
+    EXPECT_EQ(masked.size(), 2);  // into the first it overlaps, in order of fronts
+    EXPECT_EQ(masked[0].mask | masked[1].mask, 0xFFFFu);
+}
+
+TEST(ABufferMask, SurfacesKeepTheirFragmentsOrderedAndDisjoint) {
+    // Random insertions of a few surfaces, groups' points among them: the fragments stay in
+    // order of their fronts, a surface's fragments never overlap each other, and nothing of
+    // the inserted weight or coverage is lost while the buffer has room.
+    std::mt19937 random(11);
+    std::uniform_real_distribution<float> depth(1.0f, 3.0f);
+    std::uniform_int_distribution<int> which(0, 3);
+    for (int trial = 0; trial < 200; ++trial) {
+        ABuffer<Surfel, 64> masked;
+        masked.set_compositing(Compositing::Mask);
+        double weight = 0.0;
+        CoverageMask covered = 0;
+        for (int i = 0; i < 30; ++i) {
+            const int k = which(random);
+            const std::uint32_t surface = k == 3 ? kAnySurface : static_cast<std::uint32_t>(k);
+            const CoverageMask mask = CoverageMask{1} << (random() % 64);
+            masked.insert(depth(random), 0.05f, 0.25f, surfel(0.5f, 0.5f, 0.5f, 0, i), mask,
+                          surface);
+            weight += 0.25;
+            covered |= mask;
+        }
+        ASSERT_EQ(masked.stats().forced_merges, 0u);
+        double kept = 0.0;
+        CoverageMask united = 0;
+        const auto fragments = masked.fragments();
+        for (std::size_t i = 0; i < fragments.size(); ++i) {
+            kept += fragments[i].weight;
+            united |= fragments[i].mask;
+            EXPECT_LE(fragments[i].near, fragments[i].far);
+            if (i > 0) {
+                EXPECT_LE(fragments[i - 1].near, fragments[i].near);
+            }
+            for (std::size_t j = 0; j < i; ++j) {
+                if (same_surface(fragments[i].surface, fragments[j].surface)) {
+                    EXPECT_TRUE(fragments[j].far < fragments[i].near ||
+                                fragments[i].far < fragments[j].near)
+                        << masked;
+                }
+            }
+        }
+        EXPECT_NEAR(kept, weight, 1e-4);
+        EXPECT_EQ(united, covered);
+    }
+}
+
 TEST(ABufferMask, AlphaCompositingIgnoresTheMasks) {
     // The same insertions with and without masks composite alike by alpha.
     std::mt19937 random(5);
