@@ -258,14 +258,7 @@ class ABuffer {
         if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes, mask)) {
             return;
         }
-        FragmentType& f = open_slot(i);
-        f.near = lo;
-        f.far = hi;
-        f.weight = 0.0f;
-        f.weighted_depth = 0.0f;
-        f.sums = A{};
-        f.mask = 0;
-        accumulate(f, t, weight, attributes, mask);
+        start_fragment(i, t, lo, hi, weight, attributes, mask, 0);
     }
 
     /// The depth beyond which nothing can show any more: walking front to back with
@@ -433,16 +426,10 @@ class ABuffer {
             ++i;
         }
         if (i == m_count && m_count == Capacity) {
-            const float opaque = opaque_depth();
-            if (lo > opaque) {
-                ++m_stats.dropped_insertions;
-                m_stats.dropped_weight += weight;
-                return;
-            }
-            if (m_fragments[m_count - 1].near > opaque) {
-                ++m_stats.evicted_fragments;
-                m_stats.dropped_weight += m_fragments[m_count - 1].weight;
-                --m_count;
+            if (dropped_or_evicted(lo, weight)) {
+                if (m_count == Capacity) {
+                    return;  // dropped
+                }
             } else {
                 ++m_stats.forced_merges;
                 float nearest = std::numeric_limits<float>::infinity();
@@ -497,15 +484,38 @@ class ABuffer {
         while (slot < m_count && m_fragments[slot].near <= lo) {
             ++slot;
         }
-        FragmentType& f = open_slot(slot);
+        start_fragment(slot, t, lo, hi, weight, attributes, mask, surface);
+    }
+
+    /// A new fragment at index i (size() < Capacity) of the one intersection.
+    template <class Contribution>
+    void start_fragment(int i, float t, float lo, float hi, float weight,
+                        const Contribution& attributes, CoverageMask mask, std::uint32_t surface) {
+        FragmentType& f = open_slot(i);
+        f = FragmentType{};
         f.near = lo;
         f.far = hi;
-        f.weight = 0.0f;
-        f.weighted_depth = 0.0f;
-        f.sums = A{};
-        f.mask = 0;
         f.surface = surface;
         accumulate(f, t, weight, attributes, mask);
+    }
+
+    /// The first two choices of a full buffer (the class comment's overflow policy): drops an
+    /// intersection starting at lo behind the opaque depth, or evicts the last fragment where
+    /// it starts behind it. Returns true when it did either.
+    bool dropped_or_evicted(float lo, float weight) {
+        const float opaque = opaque_depth();
+        if (lo > opaque) {
+            ++m_stats.dropped_insertions;
+            m_stats.dropped_weight += weight;
+            return true;
+        }
+        if (m_fragments[m_count - 1].near > opaque) {
+            ++m_stats.evicted_fragments;
+            m_stats.dropped_weight += m_fragments[m_count - 1].weight;
+            --m_count;
+            return true;
+        }
+        return false;
     }
 
     /// Index of the first fragment with far ≥ lo (size() if none): far increases along the
@@ -574,18 +584,9 @@ class ABuffer {
     template <class Contribution>
     bool make_room(int& i, float lo, float hi, float t, float weight,
                    const Contribution& attributes, CoverageMask mask) {
-        const float opaque = opaque_depth();
-        if (lo > opaque) {
-            ++m_stats.dropped_insertions;
-            m_stats.dropped_weight += weight;
-            return false;
-        }
-        if (m_fragments[m_count - 1].near > opaque) {
-            // lo ≤ opaque < its near: the new fragment lies in front of it, i < m_count.
-            ++m_stats.evicted_fragments;
-            m_stats.dropped_weight += m_fragments[m_count - 1].weight;
-            --m_count;
-            return true;
+        if (dropped_or_evicted(lo, weight)) {
+            // Evicted: lo ≤ opaque < its near, the new fragment lies in front of it, i < m_count.
+            return m_count < Capacity;
         }
         ++m_stats.forced_merges;
         // The new interval's gaps to its neighbours, and the smallest gap between two
