@@ -78,8 +78,10 @@ struct Fragment {
     /// The samples of the cone's cross-section the merged intersections cover (mask
     /// compositing; 0 where the buffer composites by alpha).
     CoverageMask mask = 0;
-    /// Which surface the intersections belong to (mask compositing: the mesh object whose
-    /// tree they came from, or kAnySurface); only intersections of one surface merge.
+    /// Which surface the intersections belong to: the mesh object whose tree they came from,
+    /// or kAnySurface (a group's points, or with alpha compositing intersections of several
+    /// surfaces merged). With masks only intersections of one surface merge; a cone leaving
+    /// the fragment knows which surface it leaves (ConeTraversal::trace).
     std::uint32_t surface = 0;
 
     /// The weighted mean depth of the intersections, ray parameter t (where to shade).
@@ -141,9 +143,16 @@ inline std::ostream& operator<<(std::ostream& os, const ABufferStats& s) {
 /// with whatever it overlaps, as every intersection does with alpha compositing.
 inline constexpr std::uint32_t kAnySurface = std::numeric_limits<std::uint32_t>::max();
 
-/// Whether intersections of surfaces a and b may merge.
+/// Whether intersections of surfaces a and b may merge (may be one surface).
 inline bool same_surface(std::uint32_t a, std::uint32_t b) {
     return a == b || a == kAnySurface || b == kAnySurface;
+}
+
+/// The surface of a fragment that intersections of surfaces a and b were merged into where
+/// surfaces do not keep apart (alpha compositing, a full buffer's forced merges): one of them
+/// only where both are the same.
+inline std::uint32_t merged_surface(std::uint32_t a, std::uint32_t b) {
+    return a == b ? a : kAnySurface;
 }
 
 /// How an A-buffer turns its fragments into a pixel.
@@ -225,7 +234,9 @@ class ABuffer {
     /// intersections of one surface merge, so that two surfaces closer than the tolerance — a
     /// sheet of paper on a desk — stay two fragments and the nearer takes its samples first,
     /// instead of one fragment of their averaged colour. Fragments of different surfaces may
-    /// then overlap in depth; they are kept in order of their intervals' fronts.
+    /// then overlap in depth; they are kept in order of their intervals' fronts. With alpha
+    /// compositing surfaces merge as before, and a fragment records the one surface its
+    /// intersections came from, or kAnySurface where they came from several.
     template <class Contribution = A>
     requires requires(A& sums, const Contribution& c, float w) { sums.add(c, w); }
     void insert(float t, float tolerance, float weight, const Contribution& attributes,
@@ -252,13 +263,14 @@ class ABuffer {
             accumulate(f, t, weight, attributes, mask);
             f.near = std::min(f.near, lo);
             f.far = std::max(f.far, hi);
+            f.surface = merged_surface(f.surface, surface);
             cascade(i);
             return;
         }
-        if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes, mask)) {
+        if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes, mask, surface)) {
             return;
         }
-        start_fragment(i, t, lo, hi, weight, attributes, mask, 0);
+        start_fragment(i, t, lo, hi, weight, attributes, mask, surface);
     }
 
     /// The depth beyond which nothing can show any more: walking front to back with
@@ -553,6 +565,7 @@ class ABuffer {
         int j = i + 1;
         while (j < m_count && m_fragments[j].near <= m_fragments[i].far) {
             absorb(m_fragments[i], m_fragments[j]);
+            m_fragments[i].surface = merged_surface(m_fragments[i].surface, m_fragments[j].surface);
             ++j;
         }
         const int absorbed = j - (i + 1);
@@ -583,7 +596,7 @@ class ABuffer {
     /// merged.
     template <class Contribution>
     bool make_room(int& i, float lo, float hi, float t, float weight,
-                   const Contribution& attributes, CoverageMask mask) {
+                   const Contribution& attributes, CoverageMask mask, std::uint32_t surface) {
         if (dropped_or_evicted(lo, weight)) {
             // Evicted: lo ≤ opaque < its near, the new fragment lies in front of it, i < m_count.
             return m_count < Capacity;
@@ -605,6 +618,8 @@ class ABuffer {
             }
         }
         if (pair >= 0 && pair_gap < std::min(gap_front, gap_back)) {
+            m_fragments[pair].surface =
+                merged_surface(m_fragments[pair].surface, m_fragments[pair + 1].surface);
             absorb(m_fragments[pair], m_fragments[pair + 1]);
             erase(pair + 1, 1);
             if (i > pair + 1) {
@@ -617,6 +632,7 @@ class ABuffer {
         accumulate(f, t, weight, attributes, mask);
         f.near = std::min(f.near, lo);
         f.far = std::max(f.far, hi);
+        f.surface = merged_surface(f.surface, surface);
         return false;
     }
 

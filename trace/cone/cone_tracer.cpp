@@ -147,14 +147,16 @@ class ConeTracer {
 
     enum class Kind { Primary, Secondary };
 
+    /// `leaving`: the surface a secondary cone leaves (ConeTraversal::trace).
     Rgb radiance(const ConeRay& ray, float t_min, int depth, float weight, Kind kind,
-                 ConeWork& work) const {
+                 ConeWork& work, std::uint32_t leaving = kAnySurface) const {
         ABuffer<ConeSurface> buffer;
         buffer.set_compositing(m_compositing);
         const auto start = Clock::now();
         ConeTraversalStats& stats =
             kind == Kind::Primary ? work.stats.primary : work.stats.secondary;
-        m_traversal.trace(ray, t_min, std::numeric_limits<float>::infinity(), buffer, stats);
+        m_traversal.trace(ray, t_min, std::numeric_limits<float>::infinity(), buffer, stats,
+                          leaving);
         stats.abuffer += buffer.stats();
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         (kind == Kind::Primary ? work.stats.primary_seconds : work.stats.secondary_seconds) +=
@@ -177,6 +179,8 @@ class ConeTracer {
         bool entering = true;
         float half_interval = 0.0f;  ///< Half the fragment's depth interval.
         RayDifferential footprint;   ///< at_surface of the cone at the hit.
+        /// The fragment's surface (Fragment::surface): what the cones leaving it leave.
+        std::uint32_t surface = kAnySurface;
     };
 
     /// The footprint of `ray` at depth t as a ray differential on the surface with unit normal
@@ -207,6 +211,7 @@ class ConeTracer {
         hit.normal = hit.entering ? n : Vec3f(-n);
         hit.shape = hit.entering ? s.shape : Mat3f(-s.shape);
         hit.half_interval = 0.5f * (fragment.far - fragment.near);
+        hit.surface = fragment.surface;
         hit.footprint = at_surface(ray, t, hit.normal);
         MRT_DCHECK(is_unit(hit.direction) && is_unit(hit.normal));
         return hit;
@@ -249,7 +254,7 @@ class ConeTracer {
                 continue;
             }
             ++work.rays.shadow;
-            const float visible = visibility(p, hit.footprint, sample, nullptr, cosine, work);
+            const float visible = visibility(hit, sample, nullptr, cosine, work);
             if (visible > 0.0f) {
                 result += visible * sample.irradiance * cosine *
                           phong_brdf(material, albedo, ns, sample.wi, wo);
@@ -268,7 +273,7 @@ class ConeTracer {
             // A light straddling the tangent plane still gets its shadow cone towards the
             // centre, started as a grazing cone would be.
             const float cosine = std::max(ns.dot(sample.wi), kGrazingLightCosine);
-            const float visible = visibility(p, hit.footprint, sample, &light, cosine, work);
+            const float visible = visibility(hit, sample, &light, cosine, work);
             if (visible > 0.0f) {
                 result += visible * unoccluded;
             }
@@ -323,24 +328,21 @@ class ConeTracer {
                 refract(d, ns, eta).value_or(Vec3f((eta * d + eta * cos_i * ns).normalized())), ns,
                 Side::Below);
             const RayDifferential rd = hit.footprint.refract(d, ns, dn_dx, dn_dy, eta);
-            return secondary(hit.position, direction, rd, ns, s.roughness, hit.half_interval, depth,
-                             branch_weight, work);
+            return secondary(hit, direction, rd, s.roughness, depth, branch_weight, work);
         };
         const auto reflect_branch = [&](float branch_weight) {
             const Vec3f direction = fold_to_side(reflect(d, ns), ns, Side::Above);
             const RayDifferential rd = hit.footprint.reflect(d, ns, dn_dx, dn_dy);
-            return secondary(hit.position, direction, rd, ns, s.roughness, hit.half_interval, depth,
-                             branch_weight, work);
+            return secondary(hit, direction, rd, s.roughness, depth, branch_weight, work);
         };
         return add_branches(local, weight, branches, refract_branch, reflect_branch);
     }
 
-    Rgb secondary(const Vec3f& p, const Vec3f& direction, const RayDifferential& rd,
-                  const Vec3f& ns, float roughness, float half_interval, int depth, float weight,
-                  ConeWork& work) const {
+    Rgb secondary(const Hit& hit, const Vec3f& direction, const RayDifferential& rd,
+                  float roughness, int depth, float weight, ConeWork& work) const {
         ++work.rays.secondary;
         ConeRay ray;
-        ray.origin = p;
+        ray.origin = hit.position;
         ray.direction = direction;
         ray.cone = FootprintCone::from_differential(direction, rd);
         if (roughness > 0.0f) {
@@ -349,15 +351,17 @@ class ConeTracer {
             // with b = √2·σ·t: a radial increment.
             ray.cone.add_blur(Mat2f::Zero(), std::sqrt(2.0f) * roughness * Mat2f::Identity());
         }
-        const float t_min = start_clearance(ray.cone.start_dev, direction.dot(ns), half_interval);
-        return radiance(ray, t_min, depth + 1, weight, Kind::Secondary, work);
+        const float t_min =
+            start_clearance(ray.cone.start_dev, direction.dot(hit.normal), hit.half_interval);
+        return radiance(ray, t_min, depth + 1, weight, Kind::Secondary, work, hit.surface);
     }
 
-    /// The transmittance of the shadow cone from the fragment at p to the light.
-    float visibility(const Vec3f& p, const RayDifferential& at_hit, const LightSample& light,
-                     const EllipticalAreaLight* area, float cosine, ConeWork& work) const {
+    /// The transmittance of the shadow cone from the fragment `hit` to the light.
+    float visibility(const Hit& hit, const LightSample& light, const EllipticalAreaLight* area,
+                     float cosine, ConeWork& work) const {
+        const RayDifferential& at_hit = hit.footprint;
         ConeRay ray;
-        ray.origin = p;
+        ray.origin = hit.position;
         ray.direction = light.wi;
         FootprintCone& cone = ray.cone;
         orthonormal_basis(light.wi, cone.u, cone.v);
@@ -379,7 +383,7 @@ class ConeTracer {
             m_compositing, area != nullptr ? SamplePattern::LightDisc : SamplePattern::Gaussian);
         const auto start = Clock::now();
         m_traversal.trace(ray, t_min, light.distance * kShadowEndFraction, buffer,
-                          work.stats.shadow);
+                          work.stats.shadow, hit.surface);
         work.stats.shadow.abuffer += buffer.stats();
         work.stats.shadow_seconds += std::chrono::duration<double>(Clock::now() - start).count();
         return buffer

@@ -202,7 +202,7 @@ class Walk {
   public:
     Walk(const ConeGeometry& geometry, const ConeTraversalOptions& options,
          const std::atomic<bool>* stop, Buffer& buffer, ConeTraversalStats& stats, float t_min,
-         float t_max)
+         float t_max, std::uint32_t leaving)
         : m_geometry(geometry),
           m_view(geometry.view()),
           m_options(options),
@@ -210,13 +210,16 @@ class Walk {
           m_buffer(buffer),
           m_stats(stats),
           m_t_min(t_min),
-          m_t_max(t_max) {}
+          m_t_max(t_max),
+          m_leaving(leaving) {}
 
     void object(ConeSpace& space, std::uint32_t index, float weight, SampleRange samples) {
         const HierarchyObject& object = m_view.objects[index];
         space.object = index;
         space.surface = object.kind == HierarchyObjectKind::Mesh ? index : kAnySurface;
-        space.t_min = m_t_min / space.world_per_t;
+        // The start's clearance keeps a cone off the surface it leaves, not off another one
+        // within it: a floor under a glass's foot lies closer than the clearance.
+        space.t_min = (may_be_left(space) ? m_t_min : 0.0f) / space.world_per_t;
         space.t_max = m_t_max / space.world_per_t;
         visit(space, object.first_node, weight, samples, Level::ByFootprint, Circle::Untested);
     }
@@ -417,6 +420,13 @@ class Walk {
                                        kEnteringCosine);
     }
 
+    /// Whether the space's primitives may be of the surface the cone leaves, which the leaving
+    /// tests may skip: another object's are met even where they touch the apex (a floor under
+    /// a glass's foot), a group's points may stand for any surface.
+    bool may_be_left(const ConeSpace& space) const {
+        return same_surface(space.surface, m_leaving);
+    }
+
     /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
     /// a cone leaving it starts on: its plane passes within `tolerance` of the apex — or within
     /// the cone's own starting radius when the primitive is near the apex, so a curved
@@ -494,7 +504,8 @@ class Walk {
         // own test, rounded in the ray's frame, would have skipped each of them too. Where the
         // cone may enter a solid through some of them (a shadow cone on a closed surface) they
         // are tested one by one.
-        const bool skips_leaving = l.t_min > 0.0f && (kShade || solid == nullptr);
+        const bool left = may_be_left(space);
+        const bool skips_leaving = left && l.t_min > 0.0f && (kShade || solid == nullptr);
         const float leaving = 0.5f * kCoplanarPoint * h;
         const float leaving_start = 0.5f * space.start;
         const float leaving_near = 0.99f * (kPointSize * h + kNearApex * space.start);
@@ -516,8 +527,9 @@ class Walk {
         in.start = space.start;
         // As for triangles: the surface a cone leaves is not met again by the points that
         // stand for it (a coarse level's points reach far across the start), unless the cone
-        // enters the solid through them (enters_solid).
-        in.leaving = l.t_min > 0.0f;
+        // enters the solid through them (enters_solid). Another object's points are met: a
+        // floor under the surface's edge is not the surface (may_be_left).
+        in.leaving = left && l.t_min > 0.0f;
         in.coplanar = kCoplanarPoint * h;
         in.near = kPointSize * h + kNearApex * space.start;
         in.entered = kShade ? nullptr : solid;
@@ -722,7 +734,7 @@ class Walk {
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         const std::uint32_t end = clusters.first_triangle_cluster + clusters.triangle_cluster_count;
         // triangle()'s condition for its leaving test.
-        const bool skips_leaving = l.t_min > 0.0f || space.start == 0.0f;
+        const bool skips_leaving = (l.t_min > 0.0f || space.start == 0.0f) && may_be_left(space);
         std::array<ClusterCull, kConeClusterSize> batch;
         for (std::uint32_t first = clusters.first_triangle_cluster; first < end;
              first += kConeClusterSize) {
@@ -859,7 +871,7 @@ class Walk {
             }
             const std::array<VertexInRayFrame, 3> vertices = in_ray.vertices();
             const Vec3f winding = winding_of();
-            if (l.t_min > 0.0f || space.start == 0.0f) {
+            if ((l.t_min > 0.0f || space.start == 0.0f) && may_be_left(space)) {
                 // A cone leaving a surface starts on it: the flat surface it leaves (every
                 // triangle of a floor, coplanar with the apex) cannot be met again, whatever
                 // its footprint makes of the triangles around the start. A cone from a point
@@ -1037,6 +1049,8 @@ class Walk {
     ConeTraversalStats& m_stats;
     float m_t_min;
     float m_t_max;
+    /// The surface the cone leaves (ConeTraversal::trace), kAnySurface where not known.
+    std::uint32_t m_leaving;
     std::uint32_t m_spaces = 0;  ///< Spaces entered so far (the world is 0).
     static constexpr std::size_t kFrameCacheSize = 64;
     struct FrameCacheEntry {
@@ -1264,25 +1278,27 @@ ConeTraversal::ConeTraversal(const ConeGeometry& geometry, const ConeTraversalOp
 
 template <class Buffer>
 void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
-                             ConeTraversalStats& stats) const {
+                             ConeTraversalStats& stats, std::uint32_t leaving) const {
     ++stats.rays;
     ConeSpace world;
     world.ray = ray;
     world.start = start_radius(ray.cone);
     world.bounds = ConeSphereTest(ray.cone, m_options.max_anisotropy);
     world.apex = ApexEllipse::of(ray.cone, m_options.max_anisotropy);
-    Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max);
+    Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max, leaving);
     walk.object(world, m_geometry.view().world_object, 1.0f, SampleRange{});
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
-                          ABuffer<ConeSurface>& buffer, ConeTraversalStats& stats) const {
-    traverse(ray, t_min, t_max, buffer, stats);
+                          ABuffer<ConeSurface>& buffer, ConeTraversalStats& stats,
+                          std::uint32_t leaving) const {
+    traverse(ray, t_min, t_max, buffer, stats, leaving);
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
-                          ABuffer<ConeOpacity>& buffer, ConeTraversalStats& stats) const {
-    traverse(ray, t_min, t_max, buffer, stats);
+                          ABuffer<ConeOpacity>& buffer, ConeTraversalStats& stats,
+                          std::uint32_t leaving) const {
+    traverse(ray, t_min, t_max, buffer, stats, leaving);
 }
 
 }  // namespace mrt

@@ -248,11 +248,17 @@ class ConeTraversal {
 
     /// Inserts the fragments of the world-space cone `ray` between t_min and t_max (world
     /// units along its unit direction) into `buffer`, which is not cleared first.
+    ///
+    /// `leaving`: the surface a cone from a fragment leaves (Fragment::surface), kAnySurface
+    /// where it is not known. Near its apex a cone skips the primitives of that surface whose
+    /// planes pass within its start (it cannot meet again the surface it starts on, and its
+    /// footprint there is below the start's resolution), not those of another surface: a
+    /// cone leaving a glass bunny's underside meets the floor it stands on.
     void trace(const ConeRay& ray, float t_min, float t_max, ABuffer<ConeSurface>& buffer,
-               ConeTraversalStats& stats) const;
+               ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface) const;
     /// The same for a shadow cone: only the fragments' weights.
     void trace(const ConeRay& ray, float t_min, float t_max, ABuffer<ConeOpacity>& buffer,
-               ConeTraversalStats& stats) const;
+               ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface) const;
 
     const ConeTraversalOptions& options() const { return m_options; }
     const ConeGeometry& geometry() const { return m_geometry; }
@@ -260,7 +266,7 @@ class ConeTraversal {
   private:
     template <class Buffer>
     void traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
-                  ConeTraversalStats& stats) const;
+                  ConeTraversalStats& stats, std::uint32_t leaving) const;
 
     const ConeGeometry& m_geometry;
     ConeTraversalOptions m_options;
