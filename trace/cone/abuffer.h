@@ -204,6 +204,7 @@ class ABuffer {
     void clear() {
         m_count = 0;
         m_stats = {};
+        m_opaque_known = false;
     }
 
     /// How opaque_depth() and composite() read the fragments, and what the masks' samples
@@ -212,6 +213,7 @@ class ABuffer {
         MRT_DCHECK(m_count == 0);
         m_compositing = compositing;
         m_pattern = pattern;
+        m_opaque_known = false;
     }
 
     SamplePattern sample_pattern() const { return m_pattern; }
@@ -241,36 +243,8 @@ class ABuffer {
     requires requires(A& sums, const Contribution& c, float w) { sums.add(c, w); }
     void insert(float t, float tolerance, float weight, const Contribution& attributes,
                 CoverageMask mask = 0, std::uint32_t surface = 0) {
-        MRT_DCHECK(ordered());
-        if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
-            !std::isfinite(tolerance)) {
-            ++m_stats.ignored;
-            return;
-        }
-        ++m_stats.inserted;
-        tolerance = std::max(tolerance, 0.0f);
-        const float lo = t - tolerance;
-        const float hi = t + tolerance;
-        if (m_compositing == Compositing::Mask) {
-            insert_surface(t, lo, hi, weight, attributes, mask, surface);
-            return;
-        }
-        // The first fragment reaching lo: the fragments before it end before the new interval.
-        int i = first_reaching(lo);
-        if (i < m_count && m_fragments[i].near <= hi) {
-            ++m_stats.merged;
-            FragmentType& f = m_fragments[i];
-            accumulate(f, t, weight, attributes, mask);
-            f.near = std::min(f.near, lo);
-            f.far = std::max(f.far, hi);
-            f.surface = merged_surface(f.surface, surface);
-            cascade(i);
-            return;
-        }
-        if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes, mask, surface)) {
-            return;
-        }
-        start_fragment(i, t, lo, hi, weight, attributes, mask, surface);
+        insert_fragment(t, tolerance, weight, attributes, mask, surface);
+        m_opaque_known = false;
     }
 
     /// The depth beyond which nothing can show any more: walking front to back with
@@ -289,33 +263,12 @@ class ABuffer {
     /// With masks: the far end of the fragment whose mask (its holes closed, close_holes)
     /// completes the union of the masks in front of it and its own.
     float opaque_depth() const {
-        if (m_compositing == Compositing::Mask) {
-            CoverageMask covered = 0;
-            // Fragments of different surfaces overlap: whatever starts behind the far end of
-            // every fragment up to the one completing the union lies behind all of them.
-            float far = -std::numeric_limits<float>::infinity();
-            for (int i = 0; i < m_count; ++i) {
-                const CoverageMask mask = m_fragments[i].mask;
-                far = std::max(far, m_fragments[i].far);
-                // Closing holes cannot complete a union that misses more than a sample's
-                // neighbourhood's worth: skip it there (it is called for every node).
-                covered |= std::popcount(covered | mask) + kSampleNeighbours >= kCoverageSamples
-                               ? close_holes(mask, m_pattern)
-                               : mask;
-                if (covered == kFullCoverage) {
-                    return far;
-                }
-            }
-            return std::numeric_limits<float>::infinity();
+        // Asked at every node a cone visits, far more often than anything is inserted.
+        if (!m_opaque_known) {
+            m_opaque = find_opaque_depth();
+            m_opaque_known = true;
         }
-        float transmittance = 1.0f;
-        for (int i = 0; i < m_count; ++i) {
-            transmittance *= 1.0f - m_fragments[i].alpha();
-            if (transmittance <= kOpaqueTransmittance) {
-                return m_fragments[i].far;
-            }
-        }
-        return std::numeric_limits<float>::infinity();
+        return m_opaque;
     }
 
     /// Front-to-back alpha blending (§4.4): result Σ_i T_i·α_i·c_i with T_0 = 1,
@@ -393,6 +346,72 @@ class ABuffer {
     const ABufferStats& stats() const { return m_stats; }
 
   private:
+    template <class Contribution>
+    void insert_fragment(float t, float tolerance, float weight, const Contribution& attributes,
+                         CoverageMask mask, std::uint32_t surface) {
+        MRT_DCHECK(ordered());
+        if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
+            !std::isfinite(tolerance)) {
+            ++m_stats.ignored;
+            return;
+        }
+        ++m_stats.inserted;
+        tolerance = std::max(tolerance, 0.0f);
+        const float lo = t - tolerance;
+        const float hi = t + tolerance;
+        if (m_compositing == Compositing::Mask) {
+            insert_surface(t, lo, hi, weight, attributes, mask, surface);
+            return;
+        }
+        // The first fragment reaching lo: the fragments before it end before the new interval.
+        int i = first_reaching(lo);
+        if (i < m_count && m_fragments[i].near <= hi) {
+            ++m_stats.merged;
+            FragmentType& f = m_fragments[i];
+            accumulate(f, t, weight, attributes, mask);
+            f.near = std::min(f.near, lo);
+            f.far = std::max(f.far, hi);
+            f.surface = merged_surface(f.surface, surface);
+            cascade(i);
+            return;
+        }
+        if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes, mask, surface)) {
+            return;
+        }
+        start_fragment(i, t, lo, hi, weight, attributes, mask, surface);
+    }
+
+    /// opaque_depth(), computed.
+    float find_opaque_depth() const {
+        if (m_compositing == Compositing::Mask) {
+            CoverageMask covered = 0;
+            // Fragments of different surfaces overlap: whatever starts behind the far end of
+            // every fragment up to the one completing the union lies behind all of them.
+            float far = -std::numeric_limits<float>::infinity();
+            for (int i = 0; i < m_count; ++i) {
+                const CoverageMask mask = m_fragments[i].mask;
+                far = std::max(far, m_fragments[i].far);
+                // Closing holes cannot complete a union that misses more than a sample's
+                // neighbourhood's worth: skip it there (it runs after most insertions).
+                covered |= std::popcount(covered | mask) + kSampleNeighbours >= kCoverageSamples
+                               ? close_holes(mask, m_pattern)
+                               : mask;
+                if (covered == kFullCoverage) {
+                    return far;
+                }
+            }
+            return std::numeric_limits<float>::infinity();
+        }
+        float transmittance = 1.0f;
+        for (int i = 0; i < m_count; ++i) {
+            transmittance *= 1.0f - m_fragments[i].alpha();
+            if (transmittance <= kOpaqueTransmittance) {
+                return m_fragments[i].far;
+            }
+        }
+        return std::numeric_limits<float>::infinity();
+    }
+
     /// The invariant every operation keeps (and first_reaching relies on): the fragments in depth
     /// order, each interval ending strictly before the next begins (touching ones are merged).
     bool ordered() const {
@@ -641,6 +660,10 @@ class ABuffer {
     Compositing m_compositing = Compositing::Alpha;
     SamplePattern m_pattern = SamplePattern::Gaussian;
     ABufferStats m_stats;
+    /// opaque_depth() of the fragments as they are, where m_opaque_known (insert and clear
+    /// forget it).
+    mutable float m_opaque = 0.0f;
+    mutable bool m_opaque_known = false;
 };
 
 template <class A, int Capacity>
