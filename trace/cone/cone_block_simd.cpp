@@ -362,6 +362,8 @@ std::uint32_t weigh_points_simd(const ConeVoxelBlock& block, std::uint32_t candi
         hn::Store(along, d, out.along.data() + k);
         hn::Store(depth, d, out.t.data() + k);
         hn::Store(q, d, out.q.data() + k);
+        hn::Store(ou, d, out.u.data() + k);
+        hn::Store(ov, d, out.v.data() + k);
         hits |= lane_bits(d, hit) << k;
         back_faces |= lane_bits(d, back) << k;
     }

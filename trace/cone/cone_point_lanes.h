@@ -65,12 +65,17 @@ struct alignas(64) PointLanes {
     std::array<float, kConeClusterSize> along{};  ///< n·d.
     std::array<float, kConeClusterSize> t{};      ///< Depth where the axis meets the point.
     std::array<float, kConeClusterSize> q{};      ///< |G⁻¹·offset|², the Gaussian's exponent.
-    std::uint32_t back_faces = 0;                 ///< Candidates on a closed surface's back.
+    /// The point's offset from the axis along u and v (ConeRay::frame_of of its position): where
+    /// its coverage mask's disc lies.
+    std::array<float, kConeClusterSize> u{};
+    std::array<float, kConeClusterSize> v{};
+    std::uint32_t back_faces = 0;  ///< Candidates on a closed surface's back.
 };
 
 /// Bits of `candidates` (points of `block` in use) whose point passes every test before its
 /// weight: not a back face, not of the surface the cone leaves, within the clip and between the
-/// depths. `lanes` receives each point's normal, n·d, depth and exponent. The SIMD kernel.
+/// depths. `lanes` receives each point's normal, n·d, depth, exponent and offset from the axis.
+/// The SIMD kernel.
 std::uint32_t weigh_points(const ConeVoxelBlock& block, std::uint32_t candidates,
                            const PointLanesInput& in, PointLanes& lanes);
 
@@ -126,6 +131,8 @@ inline std::uint32_t weigh_points_scalar(const ConeVoxelBlock& block, std::uint3
         }
         lanes.t[k] = depth;
         lanes.q[k] = q;
+        lanes.u[k] = offset.x();
+        lanes.v[k] = offset.y();
         hits |= 1u << k;
     }
     return hits;

@@ -449,18 +449,21 @@ class Walk {
     }
 
     /// The node's footprint as points' masks need it: the map into the Gaussian's units that
-    /// the triangles' vertices use (GaussianFrame::map, y = S·x with S = (F·Fᵀ)^(−1/2)), and
-    /// its inverse S⁻¹ = (F·Fᵀ)^(1/2), which carries a disc's quadratic form there. Once per
-    /// node, not per point.
+    /// the triangles' vertices use (GaussianFrame::map, y = S·x with S = (F·Fᵀ)^(−1/2)), its
+    /// inverse S⁻¹ = (F·Fᵀ)^(1/2) and S⁻² = F·Fᵀ, which carry a disc's quadratic form there.
+    /// Once per node, not per point.
     struct PointMaskFrame {
         GaussianFrame map;
         Mat2f root;
+        Mat2f square;
         CoverageMask samples;  ///< The samples the node's level may cover (SampleRange).
 
         PointMaskFrame(const SymmetricEigen2& e, CoverageMask level_samples)
             : map(GaussianFrame::of_ellipse(e)),
               root(std::sqrt(e.major) * e.major_axis * e.major_axis.transpose() +
                    std::sqrt(e.minor) * e.minor_axis * e.minor_axis.transpose()),
+              square(e.major * e.major_axis * e.major_axis.transpose() +
+                     e.minor * e.minor_axis * e.minor_axis.transpose()),
               samples(level_samples) {}
     };
 
@@ -573,7 +576,7 @@ class Walk {
                     const auto k = static_cast<std::size_t>(std::countr_zero(bits));
                     point(space,
                           m_geometry.point_order(cluster.first + static_cast<std::uint32_t>(k)),
-                          frame, lanes, k, h, weight, masks ? &*masks : nullptr, node);
+                          frame, lanes, k, h, weight, masks ? &*masks : nullptr);
                 }
             }
         }
@@ -605,7 +608,7 @@ class Walk {
     /// but its weight): weighed and inserted.
     void point(const ConeSpace& space, std::uint32_t i, const PointWeightFrame& frame,
                const PointLanes& lanes, std::size_t k, float h, float weight,
-               const PointMaskFrame* masks, const HierarchyNode& node) {
+               const PointMaskFrame* masks) {
         const float along = lanes.along[k];
         const float coverage = decode_coverage8(m_view.core[i].coverage);
         const float hit_weight = point_weight_of_exponent(frame, lanes.q[k], along, coverage);
@@ -621,8 +624,10 @@ class Walk {
             0.5f * h * (1.0f + 0.5f * grazing_tangent(along, kPointToleranceTangent));
         const float t = lanes.t[k];
         const Vec3f normal(lanes.nx[k], lanes.ny[k], lanes.nz[k]);
-        const CoverageMask mask =
-            masks != nullptr ? point_mask(space, i, normal, along, coverage, h, *masks, node) : 0;
+        const CoverageMask mask = masks != nullptr
+                                      ? point_mask(space, Vec2f(lanes.u[k], lanes.v[k]), normal,
+                                                   along, coverage, h, *masks)
+                                      : 0;
         if constexpr (kShade) {
             const ConeSurface surface = point_surface(space, i, normal);
             m_buffer.insert(
@@ -638,28 +643,24 @@ class Walk {
     /// The samples point i covers: the disc of the area it stands for (its coverage share of a
     /// voxel face, widened by kPointDiscScale so that a surface's discs leave no gaps between
     /// them), seen along the cone's axis, in the Gaussian's units of the node's footprint.
-    CoverageMask point_mask(const ConeSpace& space, std::uint32_t i, const Vec3f& normal,
-                            float along, float coverage, float h, const PointMaskFrame& masks,
-                            const HierarchyNode& node) const {
+    CoverageMask point_mask(const ConeSpace& space, const Vec2f& offset, const Vec3f& normal,
+                            float along, float coverage, float h,
+                            const PointMaskFrame& masks) const {
         const float radius = kPointDiscScale * h * std::sqrt(coverage / std::numbers::pi_v<float>);
         const float cosine = std::abs(along);
         if (!(radius > 0.0f) || !(cosine > 0.0f)) {
             return 0;
         }
-        const Vec3f position = point_position(node, m_view.grid, m_view.core[i], m_view.offset[i]);
-        const VertexInRayFrame at = space.ray.frame_of(position);
-        // The disc seen along the axis: radius ρ across the normal's direction m in the u/v
-        // plane, ρ·|n·d| along it; its quadratic form there is (I − m·mᵀ + m·mᵀ/cos²)/ρ².
-        Vec2f m(normal.dot(space.ray.cone.u), normal.dot(space.ray.cone.v));
-        const float m_length = m.norm();
-        m = m_length > 0.0f ? Vec2f(m / m_length) : Vec2f::UnitX();
-        const Mat2f disc =
-            (Mat2f::Identity() + (1.0f / (cosine * cosine) - 1.0f) * m * m.transpose()) /
-            (radius * radius);
-        // x = S⁻¹·y: the form in the Gaussian's units is S⁻ᵀ·disc·S⁻¹ (S⁻¹ symmetric).
-        return masks.samples & ellipse_mask(masks.map.map(at.offset),
-                                            masks.root * disc * masks.root,
-                                            m_buffer.sample_pattern());
+        // The disc seen along the axis: radius ρ across the direction m̂ of the normal's part m
+        // in the u/v plane, ρ·|n·d| along it; its quadratic form there is
+        // (I + (1/cos² − 1)·m̂·m̂ᵀ)/ρ² = (I + m·mᵀ/cos²)/ρ², as |m|² = 1 − cos² (a unit normal).
+        // x = S⁻¹·y: in the Gaussian's units S⁻¹·form·S⁻¹ (S⁻¹ symmetric), with r = S⁻¹·m
+        // (S⁻² + r·rᵀ/cos²)/ρ².
+        const Vec2f r =
+            masks.root * Vec2f(normal.dot(space.ray.cone.u), normal.dot(space.ray.cone.v));
+        const Mat2f form =
+            (masks.square + r * r.transpose() / (cosine * cosine)) / (radius * radius);
+        return masks.samples & ellipse_mask(masks.map.map(offset), form, m_buffer.sample_pattern());
     }
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {

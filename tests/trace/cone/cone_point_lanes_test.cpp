@@ -115,8 +115,9 @@ TEST_P(ConePointLanesKernel, AnswersAsTheScalarReferenceBitForBit) {
         for (std::uint32_t bits = scalar_hits; bits != 0; bits &= bits - 1) {
             const auto k = static_cast<std::size_t>(std::countr_zero(bits));
             ++hits;
-            for (const auto member : {&PointLanes::nx, &PointLanes::ny, &PointLanes::nz,
-                                      &PointLanes::along, &PointLanes::t, &PointLanes::q}) {
+            for (const auto member :
+                 {&PointLanes::nx, &PointLanes::ny, &PointLanes::nz, &PointLanes::along,
+                  &PointLanes::t, &PointLanes::q, &PointLanes::u, &PointLanes::v}) {
                 ++lanes_compared;
                 ASSERT_EQ(std::bit_cast<std::uint32_t>((simd.*member)[k]),
                           std::bit_cast<std::uint32_t>((scalar.*member)[k]))
@@ -126,7 +127,7 @@ TEST_P(ConePointLanesKernel, AnswersAsTheScalarReferenceBitForBit) {
     }
     // Not vacuous: about a tenth of the candidates hit.
     EXPECT_GT(hits, 2000);
-    EXPECT_GT(lanes_compared, 6 * 2000);
+    EXPECT_GT(lanes_compared, 8 * 2000);
 }
 
 TEST_P(ConePointLanesKernel, DamagedInputHitsNothing) {
@@ -153,7 +154,8 @@ struct Independent {
     bool hit = false;
     float t = 0.0f;
     float weight = 0.0f;
-    double margin = 0.0;  ///< Relative distance of the nearest decision to its boundary.
+    Vec2f offset = Vec2f::Zero();  ///< The position's offset from the axis.
+    double margin = 0.0;           ///< Relative distance of the nearest decision to its boundary.
 };
 
 Independent independent(const Case& c, std::size_t k) {
@@ -203,6 +205,7 @@ Independent independent(const Case& c, std::size_t k) {
     }
     r.hit = true;
     r.t = hit->t;
+    r.offset = p.offset;
     r.weight = hit->weight;
     return r;
 }
@@ -231,6 +234,8 @@ TEST(ConePointLanes, PlaceTestAndWeighAsEachPointOnItsOwn) {
             ++hits;
             const float weight = c.frame.scale * std::abs(lanes.along[k]) * std::exp(-lanes.q[k]);
             EXPECT_NEAR(lanes.t[k], r.t, 1e-3f * (std::abs(r.t) + c.h)) << "case " << i;
+            EXPECT_NEAR(lanes.u[k], r.offset.x(), 1e-3f * (std::abs(r.t) + c.h)) << "case " << i;
+            EXPECT_NEAR(lanes.v[k], r.offset.y(), 1e-3f * (std::abs(r.t) + c.h)) << "case " << i;
             EXPECT_NEAR(weight, r.weight, 1e-3f * r.weight + 1e-6f) << "case " << i;
         }
     }
