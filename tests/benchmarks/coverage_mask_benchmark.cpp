@@ -61,6 +61,17 @@ void BM_EllipseMask(benchmark::State& state) {
 }
 BENCHMARK(BM_EllipseMask);
 
+// The one-sample-at-a-time reference the dispatched kernel above answers as.
+void BM_EllipseMaskScalar(benchmark::State& state) {
+    const auto t = triangles();
+    const Mat2f form{{4.0f, 1.0f}, {1.0f, 2.0f}};
+    std::size_t i = 0;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(mrt::ellipse_mask_scalar(t[i++ & 1023][0], form));
+    }
+}
+BENCHMARK(BM_EllipseMaskScalar);
+
 }  // namespace
 
 BENCHMARK_MAIN();

@@ -1,6 +1,7 @@
 #include "trace/cone/coverage_mask.h"
 
 #include "common/footprint/point_weight.h"
+#include "trace/cone/coverage_mask_simd.h"
 
 #include <algorithm>
 #include <cmath>
@@ -182,6 +183,14 @@ CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c, Sampl
 }
 
 CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form, SamplePattern pattern) {
+    if (!centre.allFinite() || !form.allFinite()) {
+        return 0;
+    }
+    return samples_in_ellipse(coverage_samples(pattern), centre.x(), centre.y(), form(0, 0),
+                              0.5f * (form(0, 1) + form(1, 0)), form(1, 1));
+}
+
+CoverageMask ellipse_mask_scalar(const Vec2f& centre, const Mat2f& form, SamplePattern pattern) {
     if (!centre.allFinite() || !form.allFinite()) {
         return 0;
     }

@@ -83,6 +83,10 @@ CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c,
 /// positive definite (a surfel's disc as the footprint sees it); nothing where it is not finite.
 CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form,
                           SamplePattern pattern = SamplePattern::Gaussian);
+/// ellipse_mask one sample at a time: the reference its SIMD kernel answers as, bit for bit
+/// (trace/cone/coverage_mask_simd.h).
+CoverageMask ellipse_mask_scalar(const Vec2f& centre, const Mat2f& form,
+                                 SamplePattern pattern = SamplePattern::Gaussian);
 
 /// The samples a surface covers, with its holes closed: each sample it misses that is
 /// surrounded — at least kClosingNeighbours of its kSampleNeighbours nearest samples covered —
