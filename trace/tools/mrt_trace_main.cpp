@@ -66,7 +66,7 @@ struct Arguments {
     bool node_frames = false;
     bool keep_back_faces = false;
     std::string triangle_weight = "coverage";
-    std::string abuffer = "alpha";
+    std::string abuffer = "mask";
     mrt::Budgets budgets;
 };
 
@@ -453,11 +453,11 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember(mrt::kTriangleWeightNames.names()))
         ->default_val("coverage");
     app.add_option("--abuffer", args.abuffer,
-                   "cone methods: alpha (each fragment's alpha is its weight sum, 4.4) or mask "
-                   "(sub-pixel coverage masks: each of 64 rays of the cone is taken by the "
-                   "nearest fragment that covers it)")
+                   "cone methods: mask (sub-pixel coverage masks: each of 64 rays of the cone "
+                   "is taken by the nearest fragment that covers it) or alpha (the paper's: "
+                   "each fragment's alpha is its weight sum, 4.4)")
         ->check(CLI::IsMember(mrt::kCompositingNames.names()))
-        ->default_val("alpha");
+        ->default_val("mask");
     mrt::add_budget_option(app, args.budgets);
 
     return mrt::run_tool(

@@ -261,6 +261,7 @@ TEST(ConeRender, UniformQuadHasCoverageOneDownToItsTriangles) {
         SCOPED_TRACE(points ? "cone" : "cone-classic");
         ConeOptions options;
         options.traversal.points = points;
+        options.traversal.compositing = Compositing::Alpha;
         const CoverageCheck check = check_coverage(scene, 48, options);
         record(points ? "cone_worst_leak" : "classic_worst_leak", check.worst_leak);
         record(points ? "cone_worst_colour" : "classic_worst_colour", check.worst_colour);
@@ -1044,17 +1045,20 @@ TEST(ConeRender, ThinSolidCoversWhatItsSilhouetteCovers) {
     const int resolution = 48;
     const ConeScene scene(scratch.path(), bare_plant(resolution), "bare.json");
     const double reference = coverage_of(scene.whitted(resolution, resolution, 256));
-    ConeOptions classic;
+    // First the paper's alpha A-buffer, then masks.
+    ConeOptions alpha;
+    alpha.traversal.compositing = Compositing::Alpha;
+    ConeOptions classic = alpha;
     classic.traversal.points = false;
     ConeOptions classic_both = classic;
     classic_both.traversal.cull_closed_back_faces = false;
-    ConeOptions both;
+    ConeOptions both = alpha;
     both.traversal.cull_closed_back_faces = false;
     const ConeRenderOutput culled = scene.render(resolution, resolution, classic);
     const double cone_classic = coverage_of(culled.render.image);
     const double cone_classic_both =
         coverage_of(scene.render(resolution, resolution, classic_both).render.image);
-    const double cone = coverage_of(scene.render(resolution, resolution).render.image);
+    const double cone = coverage_of(scene.render(resolution, resolution, alpha).render.image);
     const double cone_both = coverage_of(scene.render(resolution, resolution, both).render.image);
     // With coverage masks a branch's back faces hide behind its front faces, and the triangles
     // side by side add up their halves instead of compounding their alphas.
@@ -1218,7 +1222,9 @@ TEST(ConeRender, SoftShadowsFollowTheDistributedTracersPenumbra) {
     const ConeScene scene(scratch.path(), soft_shadow_scene(resolution), "soft.json");
     const Image reference = scene.distributed(resolution, resolution, 256);
     const Image hard = scene.whitted(resolution, resolution, 1);
-    const Image cone = scene.render(resolution, resolution).render.image;
+    ConeOptions alpha;
+    alpha.traversal.compositing = Compositing::Alpha;
+    const Image cone = scene.render(resolution, resolution, alpha).render.image;
     const double cone_error = rmse(cone, reference);
     const double hard_error = rmse(hard, reference);
     record("cone_rmse", cone_error);
