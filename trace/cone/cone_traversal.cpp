@@ -128,6 +128,8 @@ struct ConeSpace {
     /// What its intersections are to the A-buffer (ABuffer::insert): the object where it is a
     /// mesh, any surface where it is a group.
     std::uint32_t surface = 0;
+    /// Whether its primitives may be of the surface the cone leaves (Walk::may_be_left).
+    bool may_be_left = true;
     float start = 0.0f;  ///< How far from the apex the cone's rays start (start_radius).
     /// The sphere tests' view of `ray.cone`, prepared once per space.
     ConeSphereTest bounds;
@@ -217,6 +219,8 @@ class Walk {
         const HierarchyObject& object = m_view.objects[index];
         space.object = index;
         space.surface = object.kind == HierarchyObjectKind::Mesh ? index : kAnySurface;
+        space.may_be_left =
+            m_leaving == kAnySurface || m_geometry.meshes_below().holds(index, m_leaving);
         // The start's clearance keeps a cone off the surface it leaves, not off another one
         // within it: a floor under a glass's foot lies closer than the clearance.
         space.t_min = (may_be_left(space) ? m_t_min : 0.0f) / space.world_per_t;
@@ -422,10 +426,9 @@ class Walk {
 
     /// Whether the space's primitives may be of the surface the cone leaves, which the leaving
     /// tests may skip: another object's are met even where they touch the apex (a floor under
-    /// a glass's foot), a group's points may stand for any surface.
-    bool may_be_left(const ConeSpace& space) const {
-        return same_surface(space.surface, m_leaving);
-    }
+    /// a glass's foot); a group's points where the group holds the surface (MeshesBelow: the
+    /// ground's coarse points, a voxel of many boards, are not a glass bunny's underside).
+    static bool may_be_left(const ConeSpace& space) { return space.may_be_left; }
 
     /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
     /// a cone leaving it starts on: its plane passes within `tolerance` of the apex — or within
@@ -1146,7 +1149,7 @@ void append_blocks(const std::vector<ConeCluster>& clusters, std::uint32_t first
 
 ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                            const TextureSampler& textures)
-    : m_view(view), m_scene(scene), m_textures(textures), m_closed(m_view) {
+    : m_view(view), m_scene(scene), m_textures(textures), m_closed(m_view), m_meshes_below(m_view) {
     m_to_object.reserve(m_view.instances.size());
     m_turn.reserve(m_view.instances.size());
     m_normal_to_group.reserve(m_view.instances.size());

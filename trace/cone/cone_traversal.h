@@ -43,6 +43,7 @@
 #include "trace/cone/cone_surface.h"
 #include "trace/cone/cone_triangle.h"
 #include "trace/cone/cone_triangle_block.h"
+#include "trace/cone/meshes_below.h"
 
 #include <array>
 #include <atomic>
@@ -179,6 +180,7 @@ class ConeGeometry {
     const ConeInstanceBound& instance_bound(std::uint32_t i) const { return m_instance_bounds[i]; }
     /// The closed surfaces of the meshes.
     const ClosedSurfaces& closed_surfaces() const { return m_closed; }
+    const MeshesBelow& meshes_below() const { return m_meshes_below; }
 
     const ConeNodeClusters& clusters(std::uint32_t node) const { return m_node_clusters[node]; }
     /// The bounding spheres of a node's children (a node with children only), tested together.
@@ -223,6 +225,7 @@ class ConeGeometry {
     std::vector<Mat3f> m_normal_to_group;
     std::vector<ConeInstanceBound> m_instance_bounds;
     ClosedSurfaces m_closed;
+    MeshesBelow m_meshes_below;
     std::vector<ConeNodeClusters> m_node_clusters;
     static constexpr std::uint32_t kNoChildren = 0xffffffffu;
     std::vector<std::uint32_t> m_child_block;  ///< Per node, into m_child_blocks.

@@ -1423,6 +1423,62 @@ TEST(ConeRender, ConeLeavingASurfaceMeetsTheFloorItTouches) {
     EXPECT_LE(mask.wrong, 2);
 }
 
+/// Which meshes a group's points stand for: a ground of instanced boards holds the board's
+/// mesh, not the sphere beside it; the world holds both; a mesh holds itself only. A cone
+/// leaving the sphere takes no point of the ground for the sphere's surface (the field's glass
+/// bunnies lost the floor under them to the ground's coarse points).
+TEST(MeshesBelow, AGroupHoldsTheMeshesOfItsInstancesAndNoOthers) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    json boards = json::array();
+    for (int i = 0; i < 4; ++i) {
+        boards.push_back(
+            {{"instance", "board"}, {"transform", {{"translate", vec(-3 + 2 * i, 0, 0)}}}});
+    }
+    const json scene = {{"camera", camera_json(vec(0, 6, 8), vec(0, 0, 0), 40, 8, 8)},
+                        {"materials", {{"grey", {{"diffuse", 0.5}}}}},
+                        {"groups",
+                         {{"board",
+                           {{"objects", json::array({{{"shape", "checkerboard"},
+                                                      {"size", {2, 2}},
+                                                      {"tiles", {4, 4}},
+                                                      {"materials", {"grey", "grey"}}}})}}},
+                          {"ground", {{"objects", boards}}}}},
+                        {"objects",
+                         {{{"instance", "ground"}},
+                          {{"shape", "sphere"},
+                           {"radius", 0.5},
+                           {"material", "grey"},
+                           {"transform", {{"translate", vec(0, 0.5, 0)}}}}}}};
+    const ConeScene cone_scene(scratch.path(), scene, "ground.json");
+    const HierarchyView& view = cone_scene.geometry().view();
+    const MeshesBelow& below = cone_scene.geometry().meshes_below();
+    std::vector<std::uint32_t> meshes;
+    std::vector<std::uint32_t> groups;
+    for (std::uint32_t o = 0; o < view.objects.size(); ++o) {
+        (view.objects[o].kind == HierarchyObjectKind::Mesh ? meshes : groups).push_back(o);
+    }
+    ASSERT_EQ(meshes.size(), 2u);
+    // The board has 32 triangles, the sphere more.
+    const bool board_first = view.objects[meshes[0]].triangle_count == 32;
+    const std::uint32_t board = board_first ? meshes[0] : meshes[1];
+    const std::uint32_t sphere = board_first ? meshes[1] : meshes[0];
+    ASSERT_EQ(view.objects[board].triangle_count, 32u);
+    for (const std::uint32_t mesh : meshes) {
+        EXPECT_TRUE(below.holds(mesh, mesh));
+    }
+    EXPECT_FALSE(below.holds(board, sphere));
+    EXPECT_FALSE(below.holds(sphere, board));
+    // Every group holds the board; only the world (the one holding everything) the sphere.
+    int holding_sphere = 0;
+    for (const std::uint32_t group : groups) {
+        EXPECT_TRUE(below.holds(group, board)) << group;
+        holding_sphere += below.holds(group, sphere) ? 1 : 0;
+    }
+    EXPECT_EQ(holding_sphere, 1);
+    EXPECT_TRUE(below.holds(view.world_object, sphere));
+    EXPECT_TRUE(below.holds(view.world_object, board));
+}
+
 TEST(ConeRender, EyeOnAPlaneDoesNotSeeItEdgeOn) {
     // The eye at the board's height, looking along it: a zero-area surface covers nothing, so
     // the image is the sky and the spheres, as whitted sees it.
