@@ -367,7 +367,8 @@ class Walk {
         }
         for (std::uint32_t i = node.first_instance; i < node.first_instance + node.instance_count;
              ++i) {
-            if (!reaches_instance(space, m_geometry.instance_bound(i))) {
+            if (!reaches_instance(space, m_geometry.instance_bound(i),
+                                  m_view.instances[i].object)) {
                 continue;
             }
             ++m_stats.instances_entered;
@@ -382,13 +383,20 @@ class Walk {
     /// Whether a cone may meet anything of an instance, tested in the group's space before the
     /// cone is mapped into the instance's: half of the instances a cone's node leads it to
     /// (a leaf of an instance tree holds up to four) lie beside it.
-    bool reaches_instance(const ConeSpace& space, const ConeInstanceBound& bound) {
+    bool reaches_instance(const ConeSpace& space, const ConeInstanceBound& bound,
+                          std::uint32_t object) {
         if (!m_options.instance_bounds || !bound.similarity) {
             return true;
         }
         ++m_stats.spheres_tested;
         SphereInRayFrame sphere;
-        if (!may_enter(bound, space.ray, space.bounds, space.t_min, space.t_max, sphere)) {
+        // From the depth the object's own space will start at (object(): the start's clearance
+        // only where it may hold the surface the cone leaves).
+        const float t_min =
+            m_leaving == kAnySurface || m_geometry.meshes_below().holds(object, m_leaving)
+                ? space.t_min
+                : 0.0f;
+        if (!may_enter(bound, space.ray, space.bounds, t_min, space.t_max, sphere)) {
             return false;
         }
         return !behind_opaque(space, sphere);
