@@ -51,26 +51,19 @@ void BM_GaussianTriangleMass(benchmark::State& state) {
 }
 BENCHMARK(BM_GaussianTriangleMass);
 
-void BM_EllipseMask(benchmark::State& state) {
+/// A point's disc mask: the dispatched kernel, and the one-sample-at-a-time reference it
+/// answers as.
+void BM_EllipseMask(benchmark::State& state,
+                    mrt::CoverageMask (*mask_of)(const Vec2f&, const Mat2f&, mrt::SamplePattern)) {
     const auto t = triangles();
     const Mat2f form{{4.0f, 1.0f}, {1.0f, 2.0f}};
     std::size_t i = 0;
     for (auto _ : state) {
-        benchmark::DoNotOptimize(mrt::ellipse_mask(t[i++ & 1023][0], form));
+        benchmark::DoNotOptimize(mask_of(t[i++ & 1023][0], form, mrt::SamplePattern::Gaussian));
     }
 }
-BENCHMARK(BM_EllipseMask);
-
-// The one-sample-at-a-time reference the dispatched kernel above answers as.
-void BM_EllipseMaskScalar(benchmark::State& state) {
-    const auto t = triangles();
-    const Mat2f form{{4.0f, 1.0f}, {1.0f, 2.0f}};
-    std::size_t i = 0;
-    for (auto _ : state) {
-        benchmark::DoNotOptimize(mrt::ellipse_mask_scalar(t[i++ & 1023][0], form));
-    }
-}
-BENCHMARK(BM_EllipseMaskScalar);
+BENCHMARK_CAPTURE(BM_EllipseMask, dispatched, &mrt::ellipse_mask);
+BENCHMARK_CAPTURE(BM_EllipseMask, scalar, &mrt::ellipse_mask_scalar);
 
 }  // namespace
 

@@ -128,7 +128,7 @@ struct ConeSpace {
     /// What its intersections are to the A-buffer (ABuffer::insert): the object where it is a
     /// mesh, any surface where it is a group.
     std::uint32_t surface = 0;
-    /// Whether its primitives may be of the surface the cone leaves (Walk::may_be_left).
+    /// Whether its primitives may be of the surface the cone leaves (Walk::may_hold_left).
     bool may_be_left = true;
     float start = 0.0f;  ///< How far from the apex the cone's rays start (start_radius).
     /// The sphere tests' view of `ray.cone`, prepared once per space.
@@ -219,11 +219,10 @@ class Walk {
         const HierarchyObject& object = m_view.objects[index];
         space.object = index;
         space.surface = object.kind == HierarchyObjectKind::Mesh ? index : kAnySurface;
-        space.may_be_left =
-            m_leaving == kAnySurface || m_geometry.meshes_below().holds(index, m_leaving);
+        space.may_be_left = may_hold_left(index);
         // The start's clearance keeps a cone off the surface it leaves, not off another one
         // within it: a floor under a glass's foot lies closer than the clearance.
-        space.t_min = (may_be_left(space) ? m_t_min : 0.0f) / space.world_per_t;
+        space.t_min = (space.may_be_left ? m_t_min : 0.0f) / space.world_per_t;
         space.t_max = m_t_max / space.world_per_t;
         visit(space, object.first_node, weight, samples, Level::ByFootprint, Circle::Untested);
     }
@@ -392,10 +391,7 @@ class Walk {
         SphereInRayFrame sphere;
         // From the depth the object's own space will start at (object(): the start's clearance
         // only where it may hold the surface the cone leaves).
-        const float t_min =
-            m_leaving == kAnySurface || m_geometry.meshes_below().holds(object, m_leaving)
-                ? space.t_min
-                : 0.0f;
+        const float t_min = may_hold_left(object) ? space.t_min : 0.0f;
         if (!may_enter(bound, space.ray, space.bounds, t_min, space.t_max, sphere)) {
             return false;
         }
@@ -432,11 +428,14 @@ class Walk {
                                        kEnteringCosine);
     }
 
-    /// Whether the space's primitives may be of the surface the cone leaves, which the leaving
-    /// tests may skip: another object's are met even where they touch the apex (a floor under
-    /// a glass's foot); a group's points where the group holds the surface (MeshesBelow: the
-    /// ground's coarse points, a voxel of many boards, are not a glass bunny's underside).
-    static bool may_be_left(const ConeSpace& space) { return space.may_be_left; }
+    /// Whether an object's primitives may be of the surface the cone leaves, which the leaving
+    /// tests and the start's clearance keep it off: another object's are met even where they
+    /// touch the apex (a floor under a glass's foot); a group's points where the group holds
+    /// the surface (MeshesBelow: the ground's coarse points, a voxel of many boards, are not a
+    /// glass bunny's underside).
+    bool may_hold_left(std::uint32_t object) const {
+        return m_leaving == kAnySurface || m_geometry.meshes_below().holds(object, m_leaving);
+    }
 
     /// Whether the primitive at `position` with unit `normal` (of size `size`) is the surface
     /// a cone leaving it starts on: its plane passes within `tolerance` of the apex — or within
@@ -518,7 +517,7 @@ class Walk {
         // own test, rounded in the ray's frame, would have skipped each of them too. Where the
         // cone may enter a solid through some of them (a shadow cone on a closed surface) they
         // are tested one by one.
-        const bool left = may_be_left(space);
+        const bool left = space.may_be_left;
         const bool skips_leaving = left && l.t_min > 0.0f && (kShade || solid == nullptr);
         const float leaving = 0.5f * kCoplanarPoint * h;
         const float leaving_start = 0.5f * space.start;
@@ -542,7 +541,7 @@ class Walk {
         // As for triangles: the surface a cone leaves is not met again by the points that
         // stand for it (a coarse level's points reach far across the start), unless the cone
         // enters the solid through them (enters_solid). Another object's points are met: a
-        // floor under the surface's edge is not the surface (may_be_left).
+        // floor under the surface's edge is not the surface (may_hold_left).
         in.leaving = left && l.t_min > 0.0f;
         in.coplanar = kCoplanarPoint * h;
         in.near = kPointSize * h + kNearApex * space.start;
@@ -746,7 +745,7 @@ class Walk {
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         const std::uint32_t end = clusters.first_triangle_cluster + clusters.triangle_cluster_count;
         // triangle()'s condition for its leaving test.
-        const bool skips_leaving = (l.t_min > 0.0f || space.start == 0.0f) && may_be_left(space);
+        const bool skips_leaving = (l.t_min > 0.0f || space.start == 0.0f) && space.may_be_left;
         std::array<ClusterCull, kConeClusterSize> batch;
         for (std::uint32_t first = clusters.first_triangle_cluster; first < end;
              first += kConeClusterSize) {
@@ -883,7 +882,7 @@ class Walk {
             }
             const std::array<VertexInRayFrame, 3> vertices = in_ray.vertices();
             const Vec3f winding = winding_of();
-            if ((l.t_min > 0.0f || space.start == 0.0f) && may_be_left(space)) {
+            if ((l.t_min > 0.0f || space.start == 0.0f) && space.may_be_left) {
                 // A cone leaving a surface starts on it: the flat surface it leaves (every
                 // triangle of a floor, coplanar with the apex) cannot be met again, whatever
                 // its footprint makes of the triangles around the start. A cone from a point
