@@ -64,6 +64,24 @@ concept FragmentAttributes = std::default_initializable<A> && std::copyable<A> &
 /// a background up to 20× brighter than white).
 inline constexpr float kOpaqueTransmittance = 1e-4f;
 
+/// An intersection's coverage mask for ABuffer::insert: the samples themselves, or a callable
+/// that, given the samples of the fragment the intersection joins, returns at least those of
+/// its samples the fragment lacks (any of the ones it holds may be left out), so that a mask
+/// that cannot add anything need not be made exactly. Called at most once per insertion.
+template <class M>
+concept MaskSource = std::is_invocable_r_v<CoverageMask, const M&, CoverageMask> ||
+    std::convertible_to<M, CoverageMask>;
+
+/// The samples of `mask` that matter to a fragment holding `held`, or more.
+template <MaskSource M>
+CoverageMask samples_beyond(const M& mask, CoverageMask held) {
+    if constexpr (std::is_invocable_r_v<CoverageMask, const M&, CoverageMask>) {
+        return mask(held);
+    } else {
+        return static_cast<CoverageMask>(mask);
+    }
+}
+
 /// One piece of surface along a ray: the union of the depth tolerance intervals of the
 /// intersections merged into it, and their weight-summed attributes.
 template <class A>
@@ -171,6 +189,8 @@ inline constexpr EnumNames<Compositing, 2> kCompositingNames{{{
 struct CompositeResult {
     Rgb radiance = Rgb::Zero();  ///< Blended radiance, the units shade() returns.
     float transmittance = 1.0f;  ///< Fraction of what lies behind the fragments that shows, [0, 1].
+    /// With masks, the samples the fragments take (transmittance is the share of the rest).
+    CoverageMask covered = 0;
 };
 
 inline std::ostream& operator<<(std::ostream& os, const CompositeResult& r) {
@@ -230,7 +250,8 @@ class ABuffer {
     /// `attributes` is an A, or anything A::add accepts: a contribution that computes an
     /// expensive attribute only when the fragment keeps it (the shape operator of a cone's
     /// largest-weight contributor, trace/cone/cone_surface.h). `mask` is the samples the
-    /// intersection covers, for mask compositing.
+    /// intersection covers, for mask compositing, or a MaskSource that makes them only where a
+    /// fragment keeps them.
     ///
     /// With masks, `surface` tells surfaces apart (the object an intersection came from): only
     /// intersections of one surface merge, so that two surfaces closer than the tolerance — a
@@ -239,12 +260,13 @@ class ABuffer {
     /// then overlap in depth; they are kept in order of their intervals' fronts. With alpha
     /// compositing surfaces merge as before, and a fragment records the one surface its
     /// intersections came from, or kAnySurface where they came from several.
-    template <class Contribution = A>
+    template <class Contribution = A, MaskSource Mask = CoverageMask>
     requires requires(A& sums, const Contribution& c, float w) { sums.add(c, w); }
     void insert(float t, float tolerance, float weight, const Contribution& attributes,
-                CoverageMask mask = 0, std::uint32_t surface = 0) {
-        insert_fragment(t, tolerance, weight, attributes, mask, surface);
-        m_opaque_known = false;
+                const Mask& mask = 0, std::uint32_t surface = 0) {
+        if (insert_fragment(t, tolerance, weight, attributes, mask, surface)) {
+            m_opaque_known = false;
+        }
     }
 
     /// The depth beyond which nothing can show any more: walking front to back with
@@ -322,6 +344,7 @@ class ABuffer {
                 result.radiance += share * colour_of(f, share);
             }
             result.transmittance = 1.0f - mask_coverage(taken);
+            result.covered = taken;
             return result;
         }
         for (int i = 0; i < m_count && result.transmittance > 0.0f; ++i) {
@@ -346,23 +369,26 @@ class ABuffer {
     const ABufferStats& stats() const { return m_stats; }
 
   private:
-    template <class Contribution>
-    void insert_fragment(float t, float tolerance, float weight, const Contribution& attributes,
-                         CoverageMask mask, std::uint32_t surface) {
+    /// Returns whether the insertion may have moved opaque_depth(): with masks only a fragment's
+    /// interval, its samples or the fragments themselves decide it, and most insertions merge
+    /// into a fragment that already spans their interval and holds their samples.
+    template <class Contribution, class Mask>
+    bool insert_fragment(float t, float tolerance, float weight, const Contribution& attributes,
+                         const Mask& mask_source, std::uint32_t surface) {
         MRT_DCHECK(ordered());
         if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
             !std::isfinite(tolerance)) {
             ++m_stats.ignored;
-            return;
+            return false;
         }
         ++m_stats.inserted;
         tolerance = std::max(tolerance, 0.0f);
         const float lo = t - tolerance;
         const float hi = t + tolerance;
         if (m_compositing == Compositing::Mask) {
-            insert_surface(t, lo, hi, weight, attributes, mask, surface);
-            return;
+            return insert_surface(t, lo, hi, weight, attributes, mask_source, surface);
         }
+        const CoverageMask mask = samples_beyond(mask_source, 0);
         // The first fragment reaching lo: the fragments before it end before the new interval.
         int i = first_reaching(lo);
         if (i < m_count && m_fragments[i].near <= hi) {
@@ -373,12 +399,13 @@ class ABuffer {
             f.far = std::max(f.far, hi);
             f.surface = merged_surface(f.surface, surface);
             cascade(i);
-            return;
+            return true;
         }
         if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes, mask, surface)) {
-            return;
+            return true;
         }
         start_fragment(i, t, lo, hi, weight, attributes, mask, surface);
+        return true;
     }
 
     /// opaque_depth(), computed.
@@ -448,9 +475,9 @@ class ABuffer {
     /// new fragment in order of fronts; a full buffer drops or evicts behind the opaque depth
     /// as with alpha, or else merges the intersection into the fragment nearest in depth,
     /// whatever its surface (its coverage is kept).
-    template <class Contribution>
-    void insert_surface(float t, float lo, float hi, float weight, const Contribution& attributes,
-                        CoverageMask mask, std::uint32_t surface) {
+    template <class Contribution, class Mask>
+    bool insert_surface(float t, float lo, float hi, float weight, const Contribution& attributes,
+                        const Mask& mask_source, std::uint32_t surface) {
         int i = 0;
         while (i < m_count && !(same_surface(m_fragments[i].surface, surface) &&
                                 overlaps(m_fragments[i], lo, hi))) {
@@ -459,7 +486,7 @@ class ABuffer {
         if (i == m_count && m_count == Capacity) {
             if (dropped_or_evicted(lo, weight)) {
                 if (m_count == Capacity) {
-                    return;  // dropped
+                    return false;  // dropped
                 }
             } else {
                 ++m_stats.forced_merges;
@@ -480,7 +507,13 @@ class ABuffer {
                 // A group's points that merged with one surface's stand for that surface.
                 f.surface = f.surface == kAnySurface ? surface : f.surface;
             }
-            accumulate(f, t, weight, attributes, mask);
+            const CoverageMask before = f.mask;
+            accumulate(f, t, weight, attributes, samples_beyond(mask_source, before));
+            if (lo >= f.near && hi <= f.far) {
+                // Within the fragment's interval: it reaches no fragment it did not reach
+                // before (none of its surface, by the invariant) and keeps its place.
+                return f.mask != before;
+            }
             f.near = std::min(f.near, lo);
             f.far = std::max(f.far, hi);
             // The surface's fragments the united interval reaches, until it reaches no more
@@ -509,13 +542,15 @@ class ABuffer {
             for (; i > 0 && m_fragments[i - 1].near > m_fragments[i].near; --i) {
                 std::swap(m_fragments[i - 1], m_fragments[i]);
             }
-            return;
+            return true;
         }
         int slot = 0;
         while (slot < m_count && m_fragments[slot].near <= lo) {
             ++slot;
         }
-        start_fragment(slot, t, lo, hi, weight, attributes, mask, surface);
+        start_fragment(slot, t, lo, hi, weight, attributes, samples_beyond(mask_source, 0),
+                       surface);
+        return true;
     }
 
     /// A new fragment at index i (size() < Capacity) of the one intersection.

@@ -105,7 +105,79 @@ std::array<CoverageMask, kCoverageSamples> make_neighbours(const CoverageSamples
     return neighbours;
 }
 
+/// The per-axis tables of box_mask: below[a][k] holds the samples whose coordinate a is at most
+/// edge k, above[a][k] those at least edge k, edges spaced `bin` apart from −extent to +extent,
+/// the samples' largest coordinate.
+struct BoxTables {
+    float extent = 0.0f;
+    float bins_per_unit = 0.0f;
+    std::array<std::array<CoverageMask, kBoxBins + 1>, 2> below{};
+    std::array<std::array<CoverageMask, kBoxBins + 1>, 2> above{};
+
+    explicit BoxTables(const CoverageSamples& s) {
+        for (std::size_t k = 0; k < kCoverageSamples; ++k) {
+            extent = std::max({extent, std::abs(s.x[k]), std::abs(s.y[k])});
+        }
+        // A sample on the outermost edge stays within the tables' range after rounding.
+        extent *= 1.0f + 1e-5f;
+        const float bin = 2.0f * extent / kBoxBins;
+        bins_per_unit = 1.0f / bin;
+        for (std::size_t a = 0; a < 2; ++a) {
+            const auto& coordinate = a == 0 ? s.x : s.y;
+            for (std::size_t k = 0; k <= kBoxBins; ++k) {
+                const float edge = -extent + static_cast<float>(k) * bin;
+                for (std::size_t i = 0; i < kCoverageSamples; ++i) {
+                    // A twentieth of a bin's slack either way: the lookups round the box's
+                    // edges to bin edges in floats, and must not lose a sample to that.
+                    if (coordinate[i] <= edge + 0.05f * bin) {
+                        below[a][k] |= CoverageMask{1} << i;
+                    }
+                    if (coordinate[i] >= edge - 0.05f * bin) {
+                        above[a][k] |= CoverageMask{1} << i;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The bin edge at or below a coordinate (index of the `above` table), and one at or above
+    /// it (of `below`): truncation, not floor and ceil, which baseline x86-64 makes calls of;
+    /// past the last edge the index stays on it.
+    std::size_t index_below(float c) const {
+        const float k = (c + extent) * bins_per_unit;
+        return k > 0.0f ? static_cast<std::size_t>(std::min(k, static_cast<float>(kBoxBins))) : 0;
+    }
+    std::size_t index_above(float c) const {
+        const float k = (c + extent) * bins_per_unit;
+        return k > 0.0f
+                   ? std::min(
+                         static_cast<std::size_t>(std::min(k, static_cast<float>(kBoxBins))) + 1,
+                         static_cast<std::size_t>(kBoxBins))
+                   : 0;
+    }
+
+    CoverageMask of(float x0, float x1, float y0, float y1) const {
+        if (!(x0 <= x1) || !(y0 <= y1) || x1 < -extent || x0 > extent || y1 < -extent ||
+            y0 > extent) {
+            return 0;
+        }
+        return above[0][index_below(x0)] & below[0][index_above(x1)] & above[1][index_below(y0)] &
+               below[1][index_above(y1)];
+    }
+};
+
+const BoxTables& box_tables(SamplePattern pattern) {
+    static const std::array<BoxTables, 2> tables{
+        BoxTables(coverage_samples(SamplePattern::Gaussian)),
+        BoxTables(coverage_samples(SamplePattern::LightDisc))};
+    return tables[static_cast<std::size_t>(pattern)];
+}
+
 }  // namespace
+
+CoverageMask box_mask(float x0, float x1, float y0, float y1, SamplePattern pattern) {
+    return box_tables(pattern).of(x0, x1, y0, y1);
+}
 
 CoverageMask close_holes(CoverageMask mask, SamplePattern pattern) {
     static const std::array<std::array<CoverageMask, kCoverageSamples>, 2> patterns{

@@ -83,6 +83,14 @@ CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c,
 /// positive definite (a surfel's disc as the footprint sees it); nothing where it is not finite.
 CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form,
                           SamplePattern pattern = SamplePattern::Gaussian);
+/// A superset of the samples in the box [x0, x1] × [y0, y1]: those within one bin of it, the
+/// samples' extent cut into kBoxBins per axis, from tables of the samples at or beyond each
+/// bin's edge (four loads and three ANDs). Cheap enough to ask before making a triangle's exact
+/// mask whether it could add anything to the samples a fragment already holds.
+CoverageMask box_mask(float x0, float x1, float y0, float y1,
+                      SamplePattern pattern = SamplePattern::Gaussian);
+inline constexpr int kBoxBins = 64;
+
 /// ellipse_mask one sample at a time: the reference its SIMD kernel answers as, bit for bit
 /// (trace/cone/coverage_mask_simd.h).
 CoverageMask ellipse_mask_scalar(const Vec2f& centre, const Mat2f& form,

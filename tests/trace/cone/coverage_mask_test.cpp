@@ -305,6 +305,44 @@ TEST_P(CoverageMaskKernel, EllipseMaskAnswersAsTheScalarReferenceBitForBit) {
     EXPECT_GT(partial, 5000);
 }
 
+TEST(CoverageMask, BoxMasksHoldEverySampleOfTheirBoxAndFewOthers) {
+    // Superset: every sample inside the box, so that a fragment holding the box's samples can
+    // skip a triangle's exact mask. Tight: no sample further than two bins from the box, so
+    // that the skip happens.
+    std::mt19937 random(31);
+    std::uniform_real_distribution<float> position(-2.5f, 2.5f);
+    std::uniform_real_distribution<float> log_size(-4.0f, 1.5f);
+    int partial = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const SamplePattern pattern =
+            i % 2 == 0 ? SamplePattern::Gaussian : SamplePattern::LightDisc;
+        const CoverageSamples& s = coverage_samples(pattern);
+        const float extent = pattern == SamplePattern::Gaussian ? 1.98f : 1.42f;
+        const float slack = 2.0f * 2.0f * extent / kBoxBins;
+        const float x0 = position(random);
+        const float y0 = position(random);
+        const float x1 = x0 + std::exp(log_size(random));
+        const float y1 = y0 + std::exp(log_size(random));
+        const CoverageMask box = box_mask(x0, x1, y0, y1, pattern);
+        for (int k = 0; k < kCoverageSamples; ++k) {
+            const auto u = static_cast<std::size_t>(k);
+            const bool inside = s.x[u] >= x0 && s.x[u] <= x1 && s.y[u] >= y0 && s.y[u] <= y1;
+            const bool near = s.x[u] >= x0 - slack && s.x[u] <= x1 + slack &&
+                              s.y[u] >= y0 - slack && s.y[u] <= y1 + slack;
+            const bool held = ((box >> k) & 1u) != 0;
+            ASSERT_TRUE(!inside || held) << "case " << i << ", sample " << k;
+            ASSERT_TRUE(near || !held) << "case " << i << ", sample " << k;
+        }
+        partial += box != 0 && box != kFullCoverage ? 1 : 0;
+    }
+    EXPECT_GT(partial, 5000);
+    // A box on a sample's exact coordinates holds it.
+    const CoverageSamples& s = coverage_samples();
+    for (std::size_t k = 0; k < kCoverageSamples; ++k) {
+        EXPECT_NE(box_mask(s.x[k], s.x[k], s.y[k], s.y[k]) & (CoverageMask{1} << k), 0u) << k;
+    }
+}
+
 TEST(CoverageMask, DamagedInputCoversNothing) {
     const float nan = std::numeric_limits<float>::quiet_NaN();
     const float inf = std::numeric_limits<float>::infinity();
