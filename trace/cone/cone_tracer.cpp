@@ -5,6 +5,7 @@
 #include "common/system/check.h"
 #include "trace/cone/abuffer.h"
 #include "trace/cone/cone_surface.h"
+#include "trace/cone/light_share.h"
 #include "trace/render/area_light.h"
 #include "trace/render/camera_rays.h"
 #include "trace/render/film.h"
@@ -264,7 +265,7 @@ class ConeTracer {
                 continue;
             }
             ++work.rays.shadow;
-            const float visible = visibility(hit, sample, nullptr, cosine, work);
+            const float visible = visibility(hit, sample, nullptr, cosine, work).transmittance;
             if (visible > 0.0f) {
                 result += visible * sample.irradiance * cosine *
                           phong_brdf(material, albedo, ns, sample.wi, wo);
@@ -275,17 +276,24 @@ class ConeTracer {
             // (trace/render/area_light.h); the shadow cone towards its centre, widened by its
             // ellipse, gives the share of it that is visible.
             const LightSample sample = sample_area_light_centre(light, p);
-            const Rgb unoccluded = area_light_unoccluded(light, p, ns, wo, material, albedo);
-            if (!(unoccluded.maxCoeff() > 0.0f)) {
+            const AreaLightTerms terms = area_light_terms(light, p, ns, wo, material);
+            if (!(terms.reflected(light, material, albedo).maxCoeff() > 0.0f)) {
                 continue;
             }
             ++work.rays.shadow;
             // A light straddling the tangent plane still gets its shadow cone towards the
             // centre, started as a grazing cone would be.
             const float cosine = std::max(ns.dot(sample.wi), kGrazingLightCosine);
-            const float visible = visibility(hit, sample, &light, cosine, work);
-            if (visible > 0.0f) {
-                result += visible * unoccluded;
+            FootprintCone cone;
+            const CompositeResult seen = visibility(hit, sample, &light, cosine, work, &cone);
+            if (m_compositing == Compositing::Mask) {
+                // The penumbra's visible part of the light weighed by what it delivers
+                // (trace/cone/light_share.h); the highlight by the samples' count.
+                result += terms.reflected(light, material, albedo,
+                                          unblocked_light_share(light, p, ns, cone, seen.covered),
+                                          1.0f - mask_coverage(seen.covered));
+            } else if (seen.transmittance > 0.0f) {
+                result += seen.transmittance * terms.reflected(light, material, albedo);
             }
         }
         return result;
@@ -370,9 +378,11 @@ class ConeTracer {
         return radiance(ray, t_min, depth + 1, weight, Kind::Secondary, work, hit.surface);
     }
 
-    /// The transmittance of the shadow cone from the fragment `hit` to the light.
-    float visibility(const Hit& hit, const LightSample& light, const EllipticalAreaLight* area,
-                     float cosine, ConeWork& work) const {
+    /// What the shadow cone from the fragment `hit` to the light lets through (and the cone,
+    /// where asked: the frame its masks' samples are in).
+    CompositeResult visibility(const Hit& hit, const LightSample& light,
+                               const EllipticalAreaLight* area, float cosine, ConeWork& work,
+                               FootprintCone* used = nullptr) const {
         const RayDifferential& at_hit = hit.footprint;
         ConeRay ray;
         ray.origin = hit.position;
@@ -400,9 +410,11 @@ class ConeTracer {
                           work.stats.shadow, hit.surface);
         work.stats.shadow.abuffer += buffer.stats();
         work.stats.shadow_seconds += std::chrono::duration<double>(Clock::now() - start).count();
-        return buffer
-            .composite([](const ConeOpacity&, const Fragment<ConeOpacity>&) { return Rgb::Zero(); })
-            .transmittance;
+        if (used != nullptr) {
+            *used = cone;
+        }
+        return buffer.composite(
+            [](const ConeOpacity&, const Fragment<ConeOpacity>&) { return Rgb::Zero(); });
     }
 
     const Scene& m_scene;

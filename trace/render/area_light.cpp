@@ -294,18 +294,23 @@ float area_light_phong_highlight(const EllipticalAreaLight& light, const Vec3f& 
     return sum;
 }
 
+AreaLightTerms area_light_terms(const EllipticalAreaLight& light, const Vec3f& p, const Vec3f& n,
+                                const Vec3f& wo, const Material& material) {
+    AreaLightTerms terms;
+    terms.diffuse = static_cast<float>(area_light_projected_solid_angle(light, p, n) / kPi);
+    terms.highlight = (material.specular > 0.0f).any()
+                          ? area_light_phong_highlight(light, p, n, wo, material.phong_exponent)
+                          : 0.0f;
+    return terms;
+}
+
 Rgb area_light_unoccluded(const EllipticalAreaLight& light, const Vec3f& p, const Vec3f& n,
                           const Vec3f& wo, const Material& material, const Rgb& albedo) {
-    const double solid_angle = area_light_projected_solid_angle(light, p, n);
-    const float highlight =
-        (material.specular > 0.0f).any()
-            ? area_light_phong_highlight(light, p, n, wo, material.phong_exponent)
-            : 0.0f;
-    if (!(solid_angle > 0.0) && !(highlight > 0.0f)) {
+    const AreaLightTerms terms = area_light_terms(light, p, n, wo, material);
+    if (!(terms.diffuse > 0.0f) && !(terms.highlight > 0.0f)) {
         return Rgb::Zero();
     }
-    return light.radiance *
-           (albedo * static_cast<float>(solid_angle / kPi) + material.specular * highlight);
+    return terms.reflected(light, material, albedo);
 }
 
 }  // namespace mrt

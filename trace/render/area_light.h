@@ -50,4 +50,23 @@ float area_light_phong_highlight(const EllipticalAreaLight& light, const Vec3f& 
 Rgb area_light_unoccluded(const EllipticalAreaLight& light, const Vec3f& p, const Vec3f& n,
                           const Vec3f& wo, const Material& material, const Rgb& albedo);
 
+/// area_light_unoccluded's two terms apart, per unit radiance, albedo and specular colour: the
+/// projected solid angle over π and the highlight; for a tracer that sees a different share of
+/// the light through each (a penumbra hides the light's parts in proportion to their
+/// irradiance, and to their share of the highlight's lobe).
+struct AreaLightTerms {
+    float diffuse = 0.0f;
+    float highlight = 0.0f;
+
+    /// The radiance reflected toward the eye with the given shares of each term visible
+    /// (area_light_unoccluded for shares of 1).
+    Rgb reflected(const EllipticalAreaLight& light, const Material& material, const Rgb& albedo,
+                  float diffuse_share = 1.0f, float highlight_share = 1.0f) const {
+        return light.radiance * (albedo * (diffuse_share * diffuse) +
+                                 material.specular * (highlight_share * highlight));
+    }
+};
+AreaLightTerms area_light_terms(const EllipticalAreaLight& light, const Vec3f& p, const Vec3f& n,
+                                const Vec3f& wo, const Material& material);
+
 }  // namespace mrt

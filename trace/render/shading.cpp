@@ -64,7 +64,11 @@ LightSample sample_area_light_centre(const EllipticalAreaLight& light, const Vec
 }
 
 LightSample sample_area_light(const EllipticalAreaLight& light, const Vec3f& p, float u, float v) {
-    const Vec2f disc = concentric_disc(u, v);
+    return sample_area_light_at(light, concentric_disc(u, v), p);
+}
+
+LightSample sample_area_light_at(const EllipticalAreaLight& light, const Vec2f& disc,
+                                 const Vec3f& p) {
     return emitter_point(
         light, light.center + disc.x() * light.semi_axis_u + disc.y() * light.semi_axis_v, p);
 }

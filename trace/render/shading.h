@@ -59,5 +59,9 @@ LightSample sample_area_light_centre(const EllipticalAreaLight& light, const Vec
 /// `irradiance` is the one-sample estimator L·|cos θ_light|·A / d²: averaged over uniform
 /// samples, times the receiver cosine, it converges to the irradiance the light gives p.
 LightSample sample_area_light(const EllipticalAreaLight& light, const Vec3f& p, float u, float v);
+/// The same for the point at `disc` of the unit disc (centre + disc.x·semi_axis_u +
+/// disc.y·semi_axis_v).
+LightSample sample_area_light_at(const EllipticalAreaLight& light, const Vec2f& disc,
+                                 const Vec3f& p);
 
 }  // namespace mrt
