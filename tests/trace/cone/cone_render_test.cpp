@@ -75,7 +75,10 @@ class ConeScene {
     /// stratified), against which the cone's are judged: the distributed tracer's soft
     /// shadows, lens and glossy lobes, or whitted's point light and pinhole.
     Image distributed(int width, int height, int spp) const {
-        return render_distributed(m_scene, bvh(), m_textures, options(width, height),
+        return distributed(options(width, height), spp);
+    }
+    Image distributed(const RenderOptions& render_options, int spp) const {
+        return render_distributed(m_scene, bvh(), m_textures, render_options,
                                   {.sampling = DistributedSampling::Fixed, .spp = spp})
             .image;
     }
@@ -1276,6 +1279,37 @@ TEST(ConeRender, SoftShadowsFollowTheDistributedTracersPenumbra) {
     EXPECT_NEAR(outer[1], 1.0, 0.02);
     EXPECT_NEAR(inner[1], 1.0, 0.02);
     EXPECT_LT(rmse(masked, reference), 0.5 * hard_error);
+}
+
+TEST(ConeRender, ContactPenumbraOfTheSoftShadowSceneIsTheReferencesWithinTenPerCent) {
+    // The penumbra where the red sphere of effects-soft-shadows stands on the floor, which the
+    // issue of coverage masks measured too dark (0.088 of the reference's 0.137): its visible
+    // part of the large light lies overhead and delivers more than its share of the light's
+    // area (trace/cone/light_share.h). Pixels [68, 80) × [72, 84) of the scene at 160 × 120.
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    std::ifstream file(fs::path(MRT_SOURCE_DIR) / "data/scenes/effects-soft-shadows.json");
+    ASSERT_TRUE(file) << "data/scenes/effects-soft-shadows.json";
+    const ConeScene scene(scratch.path(), json::parse(file), "effects-soft-shadows.json");
+    RenderOptions options = ConeScene::options(160, 120);
+    options.crop = PixelWindow{68, 72, 80, 84};
+    const Image reference = scene.distributed(options, 256);
+    ConeOptions masks;
+    masks.traversal.compositing = Compositing::Mask;
+    const Image cone = render_cone(scene.geometry(), options, masks).render.image;
+    const auto mean_red = [](const Image& image) {
+        double sum = 0.0;
+        for (int y = 0; y < image.height(); ++y) {
+            for (int x = 0; x < image.width(); ++x) {
+                sum += image.at(x, y)[0];
+            }
+        }
+        return sum / (image.width() * image.height());
+    };
+    record("reference_mean_red", mean_red(reference));
+    record("cone_over_reference", mean_red(cone) / mean_red(reference));
+    // Measured: 1.007 (mrt-trace's render of the scene: 0.1099 against 0.1083); counting the
+    // free samples instead of weighing them gave 0.0949 (0.88) there.
+    EXPECT_NEAR(mean_red(cone) / mean_red(reference), 1.0, 0.1);
 }
 
 TEST(ConeRender, CropsPasteToTheFrameBitForBit) {
