@@ -467,6 +467,9 @@ class Walk {
         Mat2f root;
         Mat2f square;
         CoverageMask samples;  ///< The samples the node's level may cover (SampleRange).
+        /// ‖S‖₂ = 1/√minor: a disc of radius ρ lies within ρ·‖S‖₂ of its centre in the
+        /// Gaussian's units, whatever its tilt (infinite for a degenerate footprint).
+        float reach_per_radius;
 
         PointMaskFrame(const SymmetricEigen2& e, CoverageMask level_samples)
             : map(GaussianFrame::of_ellipse(e)),
@@ -474,7 +477,9 @@ class Walk {
                    std::sqrt(e.minor) * e.minor_axis * e.minor_axis.transpose()),
               square(e.major * e.major_axis * e.major_axis.transpose() +
                      e.minor * e.minor_axis * e.minor_axis.transpose()),
-              samples(level_samples) {}
+              samples(level_samples),
+              reach_per_radius(e.minor > 0.0f ? 1.0f / std::sqrt(e.minor)
+                                              : std::numeric_limits<float>::infinity()) {}
     };
 
     void points(const ConeSpace& space, std::uint32_t index, const Look& l, float weight,
@@ -654,10 +659,10 @@ class Walk {
     /// The samples point i covers: the disc of the area it stands for (its coverage share of a
     /// voxel face, widened by kPointDiscScale so that a surface's discs leave no gaps between
     /// them), seen along the cone's axis, in the Gaussian's units of the node's footprint; or
-    /// nothing where the fragment it joins holds (`held`) every sample it may cover. A bound
-    /// from the disc's bounding box (box_mask) skipped three in four of the exact masks on the
-    /// field and still cost more time than it saved: with AVX-512 the exact mask is four
-    /// vector steps, the box a chain of divisions and roots.
+    /// nothing where the fragment it joins holds (`held`) every sample it may cover. (The
+    /// ellipse's own bounding box, tighter, skipped three in four exact masks on the field and
+    /// cost more time than it saved: a division and two roots per point, where the circle's
+    /// box is a multiplication.)
     CoverageMask point_mask(const ConeSpace& space, const Vec2f& offset, const Vec3f& normal,
                             float along, float coverage, float h, CoverageMask held,
                             const PointMaskFrame& masks) const {
@@ -674,11 +679,21 @@ class Walk {
         // (I + (1/cos² − 1)·m̂·m̂ᵀ)/ρ² = (I + m·mᵀ/cos²)/ρ², as |m|² = 1 − cos² (a unit normal).
         // x = S⁻¹·y: in the Gaussian's units S⁻¹·form·S⁻¹ (S⁻¹ symmetric), with r = S⁻¹·m
         // (S⁻² + r·rᵀ/cos²)/ρ².
+        // Most points land on samples their fragment holds: a box around the circle that holds
+        // the disc (four table loads) tells, before the disc's form and its 64 tests.
+        const Vec2f centre = masks.map.map(offset);
+        const float reach = radius * masks.reach_per_radius;
+        const SamplePattern pattern = m_buffer.sample_pattern();
+        if ((masks.samples & ~held &
+             box_mask(centre.x() - reach, centre.x() + reach, centre.y() - reach,
+                      centre.y() + reach, pattern)) == 0) {
+            return 0;
+        }
         const Vec2f r =
             masks.root * Vec2f(normal.dot(space.ray.cone.u), normal.dot(space.ray.cone.v));
         const Mat2f form =
             (masks.square + r * r.transpose() / (cosine * cosine)) / (radius * radius);
-        return masks.samples & ellipse_mask(masks.map.map(offset), form, m_buffer.sample_pattern());
+        return masks.samples & ellipse_mask(centre, form, pattern);
     }
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {

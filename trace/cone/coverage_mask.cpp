@@ -140,29 +140,31 @@ struct BoxTables {
         }
     }
 
-    /// The bin edge at or below a coordinate (index of the `above` table), and one at or above
-    /// it (of `below`): truncation, not floor and ceil, which baseline x86-64 makes calls of;
-    /// past the last edge the index stays on it.
-    std::size_t index_below(float c) const {
-        const float k = (c + extent) * bins_per_unit;
-        return k > 0.0f ? static_cast<std::size_t>(std::min(k, static_cast<float>(kBoxBins))) : 0;
+    /// The bin edge at or below a coordinate (an index of `above`), and one at or above it (of
+    /// `below`): the clamped bin coordinate truncated to an int, one instruction each way, where
+    /// floor, ceil and conversions to size_t are calls or branches on baseline x86-64.
+    int index_below(float c) const {
+        return static_cast<int>(
+            std::min(std::max((c + extent) * bins_per_unit, 0.0f), static_cast<float>(kBoxBins)));
     }
-    std::size_t index_above(float c) const {
-        const float k = (c + extent) * bins_per_unit;
-        return k > 0.0f
-                   ? std::min(
-                         static_cast<std::size_t>(std::min(k, static_cast<float>(kBoxBins))) + 1,
-                         static_cast<std::size_t>(kBoxBins))
-                   : 0;
+    int index_above(float c) const {
+        const int k = static_cast<int>(std::min(std::max((c + extent) * bins_per_unit, 0.0f),
+                                                static_cast<float>(kBoxBins - 1)));
+        return k + 1;
     }
 
     CoverageMask of(float x0, float x1, float y0, float y1) const {
+        // Not a number anywhere, an empty box or one beyond the samples: nothing (the exact
+        // masks give nothing for the first).
         if (!(x0 <= x1) || !(y0 <= y1) || x1 < -extent || x0 > extent || y1 < -extent ||
             y0 > extent) {
             return 0;
         }
-        return above[0][index_below(x0)] & below[0][index_above(x1)] & above[1][index_below(y0)] &
-               below[1][index_above(y1)];
+        const auto at = [](const std::array<CoverageMask, kBoxBins + 1>& table, int k) {
+            return table[static_cast<std::size_t>(k)];
+        };
+        return at(above[0], index_below(x0)) & at(below[0], index_above(x1)) &
+               at(above[1], index_below(y0)) & at(below[1], index_above(y1));
     }
 };
 
