@@ -24,6 +24,7 @@
 #include <numeric>
 #include <random>
 #include <sstream>
+#include <tuple>
 #include <type_traits>
 #include <vector>
 
@@ -644,6 +645,47 @@ TEST(ABufferMask, SurfacesKeepTheirFragmentsOrderedAndDisjoint) {
         EXPECT_NEAR(kept, weight, 1e-4);
         EXPECT_EQ(united, covered);
     }
+}
+
+TEST(ABufferMask, AMaskSourceIsAskedOnceWithTheSamplesOfTheFragmentItJoins) {
+    // A mask given as a callable (MaskSource) is made knowing what the fragment it joins holds,
+    // and the buffer's fragments and composite come out as with the masks themselves.
+    const CoverageMask left = half_mask(true);
+    const CoverageMask right = half_mask(false);
+    ABuffer<Surfel> given = masked_buffer();
+    ABuffer<Surfel> asked = masked_buffer();
+    std::vector<CoverageMask> held;
+    const auto source = [&](CoverageMask mask) {
+        return [&held, mask](CoverageMask fragment) {
+            held.push_back(fragment);
+            return mask;
+        };
+    };
+    // One surface (id 0): left half, then right half merging into it; another (id 1) behind.
+    const std::array<std::tuple<float, CoverageMask, int>, 3> hits{
+        {{1.0f, left, 0}, {1.05f, right, 0}, {2.0f, left, 1}}};
+    for (const auto& [t, mask, id] : hits) {
+        given.insert(t, 0.1f, 0.5f, surfel(1, 0, 0, 0, id), mask, static_cast<std::uint32_t>(id));
+        asked.insert(t, 0.1f, 0.5f, surfel(1, 0, 0, 0, id), source(mask),
+                     static_cast<std::uint32_t>(id));
+    }
+    // A new fragment holds nothing yet; the merge sees the left half its fragment holds.
+    EXPECT_EQ(held, (std::vector<CoverageMask>{0, left, 0}));
+    ASSERT_EQ(asked.size(), given.size());
+    for (int i = 0; i < given.size(); ++i) {
+        EXPECT_EQ(asked[i].mask, given[i].mask) << i;
+    }
+    EXPECT_EQ(asked.opaque_depth(), given.opaque_depth());
+    // A source that leaves out what the fragment holds changes nothing either.
+    ABuffer<Surfel> lean = masked_buffer();
+    for (const auto& [t, mask, id] : hits) {
+        lean.insert(
+            t, 0.1f, 0.5f, surfel(1, 0, 0, 0, id),
+            [mask = mask](CoverageMask fragment) { return mask & ~fragment; },
+            static_cast<std::uint32_t>(id));
+    }
+    EXPECT_EQ(lean[0].mask, kFullCoverage);
+    EXPECT_EQ(lean.composite(kShadeColour).transmittance, 0.0f);
 }
 
 TEST(ABufferMask, AlphaCompositingIgnoresTheMasks) {
