@@ -52,8 +52,8 @@ Rgb area_light_unoccluded(const EllipticalAreaLight& light, const Vec3f& p, cons
 
 /// area_light_unoccluded's two terms apart, per unit radiance, albedo and specular colour: the
 /// projected solid angle over π and the highlight; for a tracer that sees a different share of
-/// the light through each (a penumbra hides the light's parts in proportion to their
-/// irradiance, and to their share of the highlight's lobe).
+/// the light through each (the cone tracer weighs a penumbra's hidden part of the light by its
+/// irradiance for the first, by its area for the second: trace/cone/light_share.h).
 struct AreaLightTerms {
     float diffuse = 0.0f;
     float highlight = 0.0f;
