@@ -28,7 +28,7 @@ void pack_points(const OctreeNode& node, const HierarchyChannels& channels, Hier
     for (const OctreePoint& p : node.points) {
         data.core.push_back({p.voxel, encode_coverage8(p.coverage), encode_normal(p.normal)});
         data.offset.push_back({encode_offset8(p.offset)});
-        data.diffuse.push_back({encode_rgb8(p.diffuse), 0});
+        data.diffuse.push_back({encode_rgb8(p.diffuse), encode_normal_length8(p.normal_length)});
         if (channels.specular) {
             data.specular.push_back({encode_rgb8(p.specular), encode_phong8(p.phong_exponent)});
         }

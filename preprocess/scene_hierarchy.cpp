@@ -339,6 +339,7 @@ class SourceSamples {
             s.position =
                 source.to_target * (node.voxel_centre(p.voxel, k) + p.offset * voxel * p.normal);
             s.normal = n.normalized();
+            s.normal_length = p.normal_length;
             s.area = static_cast<float>(static_cast<double>(p.coverage) * scale *
                                         n.cast<double>().norm());
             s.diffuse = p.diffuse;

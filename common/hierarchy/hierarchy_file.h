@@ -7,7 +7,7 @@
 //   'HEAD' always         grid resolution and counts       (HierarchyHeader, 64 bytes)
 //   'PCOR' always         voxel, coverage, normal          (PointCore, 8 bytes)
 //   'POFS' always         surface offset along the normal  (PointOffset, 1 byte)
-//   'PDIF' always         diffuse colour                   (PointDiffuse, 4 bytes)
+//   'PDIF' always         diffuse colour, normals' spread  (PointDiffuse, 4 bytes)
 //   'PSPC' any specular   specular colour, Phong exponent  (PointSpecular, 4 bytes)
 //   'PMIR' any mirror     reflectivity, roughness, normal gradient, tangent angle
 //          or refraction                                   (PointMirror, 12 bytes)
@@ -45,7 +45,7 @@
 namespace mrt {
 
 /// Format version of .mrh files this build reads and writes.
-inline constexpr std::uint32_t kHierarchyFileVersion = 3;
+inline constexpr std::uint32_t kHierarchyFileVersion = 4;
 
 /// The single record of the 'HEAD' section: the grid of every node and the counts the arrays
 /// are checked against.
@@ -129,7 +129,10 @@ static_assert(sizeof(PointOffset) == 1);
 
 struct PointDiffuse {
     std::array<std::uint8_t, 3> rgb;  ///< encode_rgb8 of the linear albedo.
-    std::uint8_t reserved;
+    /// encode_normal_length8 of OctreePoint::normal_length: how far the normals the point
+    /// stands for spread, which widens its highlight (Toksvig). In this always-present channel
+    /// because it fits its spare byte.
+    std::uint8_t normal_length;
 };
 static_assert(sizeof(PointDiffuse) == 4);
 

@@ -72,6 +72,12 @@ struct OctreePoint {
     /// weights, so a node's coverages add up to the area of the triangles its points represent.
     /// 1 for a flat surface along the grid; less on slanted ones, which occupy more voxels.
     float coverage = 0.0f;
+    /// Length of the weighted average of the unit normals the point stands for (the samples',
+    /// each weighed like every other attribute): 1 where they agree, less where they spread
+    /// (bumps, creases, curvature across its Gaussian). The tracer widens its highlight by it
+    /// (Toksvig), the spread of normals within a point being the paper's "normal
+    /// distributions" left for future work (§7).
+    float normal_length = 1.0f;
 };
 
 struct OctreeNode {

@@ -180,6 +180,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         double weight_sum = 0.0;
         double area_share = 0.0;
         Eigen::Vector3d diffuse = Eigen::Vector3d::Zero(), specular = Eigen::Vector3d::Zero();
+        Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
         double log_phong = 0.0, reflectivity = 0.0, transparency = 0.0, roughness = 0.0, ior = 0.0;
         std::vector<NormalSample> neighbours;
         for_each_voxel_near(v, k, [&](std::uint32_t id) {
@@ -198,6 +199,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
                 weight_sum += w;
                 area_share += w / total_weight[index];
                 neighbours.push_back({s.position, s.normal, static_cast<float>(w)});
+                normal_sum += w * static_cast<double>(s.normal_length) * s.normal.cast<double>();
                 diffuse += w * s.diffuse.matrix().cast<double>();
                 specular += w * s.specular.matrix().cast<double>();
                 log_phong += w * s.log_phong;
@@ -228,6 +230,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         point.roughness = static_cast<float>(roughness * inv);
         point.ior = static_cast<float>(ior * inv);
         point.coverage = static_cast<float>(area_share);  // the samples' areas are in voxel faces
+        point.normal_length = static_cast<float>(std::min(1.0, normal_sum.norm() * inv));
     });
     return points;
 }

@@ -20,7 +20,10 @@ class TextureSampler;
 struct SurfaceSample {
     Vec3f position = Vec3f::Zero();
     Vec3f normal = Vec3f::UnitZ();  ///< Unit shading normal.
-    Rgb diffuse = Rgb::Zero();      ///< Albedo times texture at the sample.
+    /// The length of the average of the unit normals the sample stands for: 1 for a sample of a
+    /// triangle, a point's OctreePoint::normal_length for a sample taken from a point.
+    float normal_length = 1.0f;
+    Rgb diffuse = Rgb::Zero();  ///< Albedo times texture at the sample.
     Rgb specular = Rgb::Zero();
     /// log of the Phong exponent: exponents are averaged geometrically, since highlights of
     /// exponent 10 and 1000 blend to something like 100, not 505.

@@ -698,7 +698,11 @@ class Walk {
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {
         ConeSurface s;
-        s.normal = (space.normal_to_world() * normal).normalized();
+        // Shortened by the spread of the normals the point stands for: a fragment's average
+        // normal is then as short as the spread of all its surface's normals, which is what
+        // Toksvig's exponent (footprint_material) widens its highlight by.
+        s.normal = decode_normal_length8(m_view.diffuse[i].normal_length) *
+                   (space.normal_to_world() * normal).normalized();
         s.diffuse = decode_rgb8(m_view.diffuse[i].rgb);
         if (!m_view.specular.empty()) {
             s.specular = decode_rgb8(m_view.specular[i].rgb);

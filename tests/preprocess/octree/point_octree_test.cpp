@@ -13,7 +13,10 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <numbers>
 #include <random>
 #include <unordered_set>
 
@@ -206,7 +209,8 @@ TEST(PointOctree, UniformMaterialIsExactAtEveryLevelAndFlatSurfacesAreCovered) {
             EXPECT_NEAR(p.diffuse[2], dark.diffuse[2], 1e-6f);
             EXPECT_NEAR(p.reflectivity, 0.5f, 1e-6f);
             EXPECT_NEAR(p.normal.y(), 1.0f, 1e-6f);
-            EXPECT_LT(p.gradient.norm(), 1e-4f);  // a plane does not bend
+            EXPECT_LT(p.gradient.norm(), 1e-4f);        // a plane does not bend
+            EXPECT_NEAR(p.normal_length, 1.0f, 1e-6f);  // nor do its normals spread
             // Away from the board's edges and the node's faces (the samples are the node's own),
             // in a node that kept no triangle (a kept one is drawn as a triangle, its area is
             // not the points'), the plane's points form a square lattice of the voxel's side
@@ -283,6 +287,72 @@ TEST(PointOctree, CoveragesShareOutTheAreaOfWhatThePointsStandFor) {
         }
     }
     EXPECT_LT(sum / static_cast<double>(count), 0.85);
+}
+
+/// The length of the average unit normal of the sphere of radius `r` about the origin, weighed
+/// by the prefilter's Gaussian of σ = `sigma` around `centre`, cut at 2.5σ: a quadrature in polar
+/// coordinates about the direction of `centre`, independent of the build's samples.
+double sphere_normal_length(const Vec3d& centre, double r, double sigma) {
+    const Vec3d axis = centre.normalized();
+    const Vec3d t = axis.unitOrthogonal();
+    const Vec3d b = axis.cross(t);
+    const double cut = 2.5 * sigma;
+    const double reach =
+        std::min(std::numbers::pi,
+                 2.0 * std::asin(std::min(1.0, 0.5 * (centre.norm() - r + cut) / r)) + 0.1);
+    constexpr int kRings = 400;
+    constexpr int kSectors = 400;
+    Vec3d sum = Vec3d::Zero();
+    double weight = 0.0;
+    for (int i = 0; i < kRings; ++i) {
+        const double polar = (i + 0.5) * reach / kRings;
+        for (int j = 0; j < kSectors; ++j) {
+            const double azimuth = (j + 0.5) * 2.0 * std::numbers::pi / kSectors;
+            const Vec3d n = std::cos(polar) * axis +
+                            std::sin(polar) * (std::cos(azimuth) * t + std::sin(azimuth) * b);
+            const double d2 = (r * n - centre).squaredNorm();
+            if (d2 > cut * cut) {
+                continue;
+            }
+            const double w = std::exp(-0.5 * d2 / (sigma * sigma)) * std::sin(polar);
+            sum += w * n;
+            weight += w;
+        }
+    }
+    return sum.norm() / weight;
+}
+
+TEST(PointOctree, NormalLengthIsTheSpreadOfTheNormalsAPointStandsFor) {
+    // On a sphere the normals under a point's Gaussian spread by about σ/r: the length of their
+    // average is that of the sphere's own normals under the same Gaussian, a quadrature. The root
+    // of a sphere half as large is half as large: the same spread (scale invariance). A plane's
+    // is 1 (UniformMaterialIsExactAtEveryLevelAndFlatSurfacesAreCovered).
+    std::vector<double> spreads;
+    for (const float radius : {1.0f, 0.5f}) {
+        const Mesh sphere = make_sphere(radius, 128, 64, 0);
+        const PointOctree octree = build_point_octree(sphere, two_materials(), nullptr, {});
+        const int k = octree.options.grid;
+        const OctreeNode& root = octree.nodes.front();
+        ASSERT_GT(root.points.size(), 100u);
+        const double sigma = root.side / static_cast<double>(k);
+        double worst = 0.0;
+        double spread = 0.0;
+        for (std::size_t i = 0; i < root.points.size(); i += 7) {
+            const OctreePoint& p = root.points[i];
+            const Vec3d centre = root.voxel_centre(p.voxel, k).cast<double>();
+            const double expected = sphere_normal_length(centre, radius, sigma);
+            worst = std::max(worst, std::abs(p.normal_length - expected) / (1.0 - expected));
+            spread += 1.0 - expected;
+        }
+        spread /= static_cast<double>((root.points.size() + 6) / 7);
+        std::printf("  radius %g: worst relative error %.4f, mean 1 - length %.5f\n", radius, worst,
+                    spread);
+        // 1 − ℓ ≈ σ²/r² (a Gaussian's mean squared tangential distance 2σ²): a per cent or more.
+        EXPECT_GT(spread, 0.3 * sigma * sigma / (radius * radius));
+        EXPECT_LT(worst, 0.03);  // measured 0.0076
+        spreads.push_back(spread);
+    }
+    EXPECT_NEAR(spreads[1] / spreads[0], 1.0, 1e-3);
 }
 
 TEST(PointOctree, CoarseCheckerboardColourIsTheAreaWeightedAverage) {
