@@ -10,8 +10,10 @@
 // the operator of its largest-weight contributor.
 
 #include "common/math/math.h"
+#include "trace/cone/highlight_mixture.h"
 
 #include <algorithm>
+#include <array>
 #include <ostream>
 
 namespace mrt {
@@ -34,6 +36,14 @@ struct ConeSurface {
     /// Set by averaged(): the length of the weighted mean normal, 1 where the contributors
     /// agree and less where the normals across the footprint spread (Toksvig 2005).
     float normal_length = 1.0f;
+    /// Each contributor's own highlight from the scene's first lights (HighlightLights::at):
+    /// their mixture, which the shader prefers to the mean normal's lobe where they differ.
+    std::array<float, kHighlightLights> highlights{};
+    /// The angular variance the turn of the normals across the footprint adds to the highlight's
+    /// lobe (mirror_spread): a triangle's, whose one interpolated normal at the axis stands for
+    /// a footprint over which it may turn by more than the lobe is wide. 0 for points, whose
+    /// normals' spread is their length. Averaged.
+    float lobe_spread = 0.0f;
 
     void add(const ConeSurface& p, float weight) {
         add_weighted(p, weight);
@@ -71,6 +81,10 @@ struct ConeSurface {
         transparency += weight * p.transparency;
         roughness += weight * p.roughness;
         ior += weight * p.transparency * p.ior;
+        lobe_spread += weight * p.lobe_spread;
+        for (std::size_t l = 0; l < kHighlightLights; ++l) {
+            highlights[l] += weight * p.highlights[l];
+        }
     }
 
     void merge(const ConeSurface& o) {
@@ -101,6 +115,10 @@ struct ConeSurface {
         a.transparency = transparency * inverse;
         a.roughness = roughness * inverse;
         a.ior = transparency > 0.0f ? ior / transparency : 1.0f;
+        a.lobe_spread = lobe_spread * inverse;
+        for (float& h : a.highlights) {
+            h *= inverse;
+        }
         return a;
     }
 };

@@ -154,7 +154,10 @@ class ConeTracer {
         : m_scene(geometry.scene()),
           m_traversal(geometry, options, stop),
           m_max_depth(max_depth),
-          m_compositing(options.compositing) {}
+          m_compositing(options.compositing),
+          m_lights(options.highlight_mixture
+                       ? HighlightLights(m_scene, Vec3f::Zero(), Vec3f::UnitZ())
+                       : HighlightLights()) {}
 
     enum class Kind { Primary, Secondary };
 
@@ -167,7 +170,7 @@ class ConeTracer {
         ConeTraversalStats& stats =
             kind == Kind::Primary ? work.stats.primary : work.stats.secondary;
         m_traversal.trace(ray, t_min, std::numeric_limits<float>::infinity(), buffer, stats,
-                          leaving);
+                          leaving, kind == Kind::Primary);
         stats.abuffer += buffer.stats();
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         (kind == Kind::Primary ? work.stats.primary_seconds : work.stats.secondary_seconds) +=
@@ -230,12 +233,14 @@ class ConeTracer {
 
     /// The material the fragment's Phong terms are evaluated with (phong_brdf and the area
     /// lights' highlight read only these two fields): its specular colour, and Toksvig's
-    /// exponent for the spread of the normals across the footprint. Without it the bunnies of
-    /// the paper's complex scene had highlights 2–4× the reference's (docs/cone-tracer.md).
+    /// exponent for the spread of the normals across the footprint, widened further by the turn
+    /// of its triangles' normals across it (ConeSurface::lobe_spread). Without it the bunnies
+    /// of the paper's complex scene had highlights 2–4× the reference's (docs/cone-tracer.md).
     static Material footprint_material(const ConeSurface& s) {
         Material material;
         material.specular = s.specular;
-        material.phong_exponent = toksvig_exponent(s.phong_exponent, s.normal_length);
+        material.phong_exponent =
+            widened_exponent(toksvig_exponent(s.phong_exponent, s.normal_length), s.lobe_spread);
         return material;
     }
 
@@ -245,20 +250,40 @@ class ConeTracer {
         const Hit hit = hit_of(s, fragment, ray);
         const Material material = footprint_material(s);
         const Rgb albedo = s.diffuse * local_share(s.reflectivity, s.transparency);
-        const Rgb local = add_direct_light(m_scene.ambient * albedo, hit, material, albedo, work);
+        const Rgb local =
+            add_direct_light(m_scene.ambient * albedo, hit, material, albedo, s.highlights, work);
         if (depth >= m_max_depth) {
             return local;
         }
         return add_secondary(local, s, hit, depth, weight, work);
     }
 
+    /// The highlight of light `light` (HighlightLights' order) for a fragment whose mean normal's
+    /// is `exact` and whose contributors' own average `mixture`: the mean normal's plus the
+    /// mixture's difference from the same approximation at the mean normal
+    /// (trace/cone/highlight_mixture.h). Exact where the contributors agree.
+    float mixed_highlight(float exact, std::size_t light, const Hit& hit, const Material& material,
+                          const std::array<float, kHighlightLights>& mixture) const {
+        if (light >= m_lights.count()) {
+            return exact;
+        }
+        const float mean = m_lights.of_light(light, hit.position, hit.normal, -hit.direction,
+                                             material.phong_exponent);
+        return std::max(0.0f, exact + mixture[light] - mean);
+    }
+
     /// `result` plus what the lights deliver to the hit, each through its shadow cone.
+    /// `highlights`: the fragment's mixture of its contributors' highlights (ConeSurface).
     Rgb add_direct_light(Rgb result, const Hit& hit, const Material& material, const Rgb& albedo,
+                         const std::array<float, kHighlightLights>& highlights,
                          ConeWork& work) const {
         const Vec3f& p = hit.position;
         const Vec3f& ns = hit.normal;
         const Vec3f wo = -hit.direction;
+        const bool specular = (material.specular > 0.0f).any();
+        std::size_t light_index = 0;
         for (const PointLight& light : m_scene.point_lights) {
+            const std::size_t index = light_index++;
             const LightSample sample = sample_point_light(light, p);
             const float cosine = ns.dot(sample.wi);
             if (cosine <= 0.0f || (sample.irradiance <= 0.0f).all()) {
@@ -266,17 +291,28 @@ class ConeTracer {
             }
             ++work.rays.shadow;
             const float visible = visibility(hit, sample, nullptr, cosine, work).transmittance;
-            if (visible > 0.0f) {
-                result += visible * sample.irradiance * cosine *
-                          phong_brdf(material, albedo, ns, sample.wi, wo);
+            if (!(visible > 0.0f)) {
+                continue;
+            }
+            result += visible * sample.irradiance * cosine * albedo / kPi;
+            if (specular) {
+                // phong_brdf's lobe times the cosine, mixed.
+                const float exact = cosine * phong_lobe(material.phong_exponent, ns, sample.wi, wo);
+                result += visible * sample.irradiance * material.specular *
+                          mixed_highlight(exact, index, hit, material, highlights);
             }
         }
         for (const EllipticalAreaLight& light : m_scene.area_lights) {
+            const std::size_t index = light_index++;
             // The light's whole extent gives the unoccluded irradiance and the highlight
             // (trace/render/area_light.h); the shadow cone towards its centre, widened by its
             // ellipse, gives the share of it that is visible.
             const LightSample sample = sample_area_light_centre(light, p);
-            const AreaLightTerms terms = area_light_terms(light, p, ns, wo, material);
+            AreaLightTerms terms = area_light_terms(light, p, ns, wo, material);
+            if (specular) {
+                terms.highlight =
+                    mixed_highlight(terms.highlight, index, hit, material, highlights);
+            }
             if (!(terms.reflected(light, material, albedo).maxCoeff() > 0.0f)) {
                 continue;
             }
@@ -421,6 +457,8 @@ class ConeTracer {
     ConeTraversal m_traversal;
     int m_max_depth;
     Compositing m_compositing;
+    /// For the mean normal's side of the highlight mixture; no lights where it is off.
+    HighlightLights m_lights;
 };
 
 /// Sets a flag after a delay, unless cancelled first: the time guard, which has to stop

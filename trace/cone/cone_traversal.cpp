@@ -204,7 +204,8 @@ class Walk {
   public:
     Walk(const ConeGeometry& geometry, const ConeTraversalOptions& options,
          const std::atomic<bool>* stop, Buffer& buffer, ConeTraversalStats& stats, float t_min,
-         float t_max, std::uint32_t leaving)
+         float t_max, std::uint32_t leaving, const HighlightLights& highlights,
+         float highlight_level_scale)
         : m_geometry(geometry),
           m_view(geometry.view()),
           m_options(options),
@@ -213,7 +214,9 @@ class Walk {
           m_stats(stats),
           m_t_min(t_min),
           m_t_max(t_max),
-          m_leaving(leaving) {}
+          m_leaving(leaving),
+          m_highlights(highlights),
+          m_highlight_level_scale(highlight_level_scale) {}
 
     void object(ConeSpace& space, std::uint32_t index, float weight, SampleRange samples) {
         const HierarchyObject& object = m_view.objects[index];
@@ -320,7 +323,9 @@ class Walk {
                 return;
             }
             const float h = spacing(node);
-            const float min_diameter = 2.0f * std::sqrt(l.ellipse.minor);
+            const float scale =
+                m_geometry.glinting_nodes().glinting(index) ? m_highlight_level_scale : 1.0f;
+            const float min_diameter = scale * 2.0f * std::sqrt(l.ellipse.minor);
             if (h <= min_diameter) {
                 const float coarse = m_options.blend_levels
                                          ? std::clamp(std::log2(min_diameter / h), 0.0f, 1.0f)
@@ -645,7 +650,8 @@ class Walk {
                                     : 0;
         };
         if constexpr (kShade) {
-            const ConeSurface surface = point_surface(space, i, normal);
+            ConeSurface surface = point_surface(space, i, normal);
+            add_highlights(surface, t * space.world_per_t);
             m_buffer.insert(
                 t * space.world_per_t, tolerance * space.world_per_t, weight * hit_weight,
                 ConeSurface::Lazy{surface, [&] { return point_shape(space, i, normal, surface); }},
@@ -694,6 +700,14 @@ class Walk {
         const Mat2f form =
             (masks.square + r * r.transpose() / (cosine * cosine)) / (radius * radius);
         return masks.samples & ellipse_mask(centre, form, pattern);
+    }
+
+    /// The contribution's own highlights from the first lights (trace/cone/highlight_mixture.h)
+    /// at world distance t along the axis.
+    void add_highlights(ConeSurface& s, float t) const {
+        if (m_highlights.count() > 0 && (s.specular > 0.0f).any()) {
+            s.highlights = m_highlights.at(t, s.normal, s.phong_exponent, s.lobe_spread);
+        }
     }
 
     ConeSurface point_surface(const ConeSpace& space, std::uint32_t i, const Vec3f& normal) const {
@@ -984,7 +998,8 @@ class Walk {
                                                  kTriangleToleranceTangent));
             if constexpr (kShade) {
                 const TriangleAtHit at = triangle_at(triangle, p, geometric, *hit);
-                const ConeSurface surface = triangle_surface(space, triangle, at);
+                ConeSurface surface = triangle_surface(space, triangle, at);
+                add_highlights(surface, hit->t * space.world_per_t);
                 m_buffer.insert(
                     hit->t * space.world_per_t, tolerance * space.world_per_t, weight * hit->weight,
                     ConeSurface::Lazy{surface, [&] { return triangle_shape(space, triangle, at); }},
@@ -1042,6 +1057,7 @@ class Walk {
             m_geometry.scene().materials[m_view.triangle_materials[triangle]];
         ConeSurface s;
         s.normal = (space.normal_to_world() * at.normal).normalized();
+        const bool specular = (material.specular > 0.0f).any() && material.phong_exponent > 0.0f;
         s.specular = material.specular;
         s.phong_exponent = material.phong_exponent;
         s.reflectivity = material.reflectivity;
@@ -1064,6 +1080,20 @@ class Walk {
             s.diffuse = m_geometry.textures().diffuse(material, at.uv, {sd.duv_dx, sd.duv_dy});
         } else {
             s.diffuse = material.diffuse;
+        }
+        if (specular) {
+            // The turn of the interpolated normal across the footprint, projected onto the
+            // triangle's plane (Igehy's transfer) as a texture lookup's is.
+            const Mat32f columns = space.ray.cone.basis() * space.ray.cone.at(at.t);
+            RayDifferential footprint;
+            footprint.dp_dx = columns.col(0);
+            footprint.dp_dy = columns.col(1);
+            const RayDifferential on_plane =
+                footprint.transfer(space.ray.direction, 0.0f, at.geometric);
+            const SurfaceDifferential sd =
+                triangle_differential(at.positions.data(), at.normals.data(), at.uvs.data(), at.b1,
+                                      at.b2, on_plane.dp_dx, on_plane.dp_dy, Facing::Front);
+            s.lobe_spread = mirror_spread(sd.dn_dx, sd.dn_dy);
         }
         return s;
     }
@@ -1100,6 +1130,9 @@ class Walk {
     float m_t_max;
     /// The surface the cone leaves (ConeTraversal::trace), kAnySurface where not known.
     std::uint32_t m_leaving;
+    const HighlightLights& m_highlights;  ///< The shading cone's lights; none for shadow cones.
+    /// ConeTraversalOptions::highlight_level_scale for a primary cone, else 1.
+    float m_highlight_level_scale;
     std::uint32_t m_spaces = 0;  ///< Spaces entered so far (the world is 0).
     static constexpr std::size_t kFrameCacheSize = 64;
     struct FrameCacheEntry {
@@ -1194,7 +1227,12 @@ void append_blocks(const std::vector<ConeCluster>& clusters, std::uint32_t first
 
 ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
                            const TextureSampler& textures)
-    : m_view(view), m_scene(scene), m_textures(textures), m_closed(m_view), m_meshes_below(m_view) {
+    : m_view(view),
+      m_scene(scene),
+      m_textures(textures),
+      m_closed(m_view),
+      m_meshes_below(m_view),
+      m_glinting(m_view) {
     m_to_object.reserve(m_view.instances.size());
     m_turn.reserve(m_view.instances.size());
     m_normal_to_group.reserve(m_view.instances.size());
@@ -1327,27 +1365,32 @@ ConeTraversal::ConeTraversal(const ConeGeometry& geometry, const ConeTraversalOp
 
 template <class Buffer>
 void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
-                             ConeTraversalStats& stats, std::uint32_t leaving) const {
+                             ConeTraversalStats& stats, std::uint32_t leaving, bool primary) const {
     ++stats.rays;
     ConeSpace world;
     world.ray = ray;
     world.start = start_radius(ray.cone);
     world.bounds = ConeSphereTest(ray.cone, m_options.max_anisotropy);
     world.apex = ApexEllipse::of(ray.cone, m_options.max_anisotropy);
-    Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max, leaving);
+    const HighlightLights highlights =
+        std::is_same_v<typename Buffer::Attributes, ConeSurface> && m_options.highlight_mixture
+            ? HighlightLights(m_geometry.scene(), ray.origin, ray.direction)
+            : HighlightLights();
+    Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max, leaving,
+                      highlights, primary ? m_options.highlight_level_scale : 1.0f);
     walk.object(world, m_geometry.view().world_object, 1.0f, SampleRange{});
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
                           ABuffer<ConeSurface>& buffer, ConeTraversalStats& stats,
-                          std::uint32_t leaving) const {
-    traverse(ray, t_min, t_max, buffer, stats, leaving);
+                          std::uint32_t leaving, bool primary) const {
+    traverse(ray, t_min, t_max, buffer, stats, leaving, primary);
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
                           ABuffer<ConeOpacity>& buffer, ConeTraversalStats& stats,
                           std::uint32_t leaving) const {
-    traverse(ray, t_min, t_max, buffer, stats, leaving);
+    traverse(ray, t_min, t_max, buffer, stats, leaving, false);
 }
 
 }  // namespace mrt

@@ -43,6 +43,7 @@
 #include "trace/cone/cone_surface.h"
 #include "trace/cone/cone_triangle.h"
 #include "trace/cone/cone_triangle_block.h"
+#include "trace/cone/glinting_nodes.h"
 #include "trace/cone/meshes_below.h"
 
 #include <array>
@@ -84,6 +85,14 @@ struct ConeTraversalOptions {
     /// Test an instance's root sphere in its group's space before mapping the cone into the
     /// instance (ConeInstanceBound); false enters every instance a node holds, to compare.
     bool instance_bounds = true;
+    /// Primary cones use the points of nodes whose points glint (GlintingNodes) where their
+    /// spacing is at most this fraction of the footprint's minor diameter, others' where it is
+    /// at most the diameter (§5.1). Chosen on the field, where the glass bunnies' glints are
+    /// most of the error (docs/cone-tracer.md, "Highlights").
+    float highlight_level_scale = 0.5f;
+    /// Each fragment's highlights from the mixture of its points' and triangles' own lobes
+    /// (trace/cone/highlight_mixture.h); false: from its mean normal alone, Toksvig-widened.
+    bool highlight_mixture = true;
 };
 
 /// What traversals did, for --stats; add up over rays and threads with +=.
@@ -181,6 +190,7 @@ class ConeGeometry {
     /// The closed surfaces of the meshes.
     const ClosedSurfaces& closed_surfaces() const { return m_closed; }
     const MeshesBelow& meshes_below() const { return m_meshes_below; }
+    const GlintingNodes& glinting_nodes() const { return m_glinting; }
 
     const ConeNodeClusters& clusters(std::uint32_t node) const { return m_node_clusters[node]; }
     /// The bounding spheres of a node's children (a node with children only), tested together.
@@ -226,6 +236,7 @@ class ConeGeometry {
     std::vector<ConeInstanceBound> m_instance_bounds;
     ClosedSurfaces m_closed;
     MeshesBelow m_meshes_below;
+    GlintingNodes m_glinting;
     std::vector<ConeNodeClusters> m_node_clusters;
     static constexpr std::uint32_t kNoChildren = 0xffffffffu;
     std::vector<std::uint32_t> m_child_block;  ///< Per node, into m_child_blocks.
@@ -258,8 +269,11 @@ class ConeTraversal {
     /// planes pass within its start (it cannot meet again the surface it starts on, and its
     /// footprint there is below the start's resolution), not those of another surface: a
     /// cone leaving a glass bunny's underside meets the floor it stands on.
+    /// `primary`: a camera's cone, which uses glinting nodes' points a level finer
+    /// (ConeTraversalOptions::highlight_level_scale).
     void trace(const ConeRay& ray, float t_min, float t_max, ABuffer<ConeSurface>& buffer,
-               ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface) const;
+               ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface,
+               bool primary = false) const;
     /// The same for a shadow cone: only the fragments' weights.
     void trace(const ConeRay& ray, float t_min, float t_max, ABuffer<ConeOpacity>& buffer,
                ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface) const;
@@ -270,7 +284,7 @@ class ConeTraversal {
   private:
     template <class Buffer>
     void traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
-                  ConeTraversalStats& stats, std::uint32_t leaving) const;
+                  ConeTraversalStats& stats, std::uint32_t leaving, bool primary) const;
 
     const ConeGeometry& m_geometry;
     ConeTraversalOptions m_options;

@@ -22,13 +22,15 @@ Rgb phong_brdf(const Material& material, const Rgb& diffuse_albedo, const Vec3f&
                const Vec3f& wo) {
     Rgb f = diffuse_albedo * (1.0f / kPi);
     if ((material.specular > 0.0f).any()) {
-        const float cos_alpha = reflect(-wi, n).dot(wo);
-        if (cos_alpha > 0.0f) {
-            const float e = material.phong_exponent;
-            f += material.specular * ((e + 2.0f) / (2.0f * kPi) * std::pow(cos_alpha, e));
-        }
+        f += material.specular * phong_lobe(material.phong_exponent, n, wi, wo);
     }
     return f;
+}
+
+float phong_lobe(float exponent, const Vec3f& n, const Vec3f& wi, const Vec3f& wo) {
+    const float cos_alpha = reflect(-wi, n).dot(wo);
+    return cos_alpha > 0.0f ? (exponent + 2.0f) / (2.0f * kPi) * std::pow(cos_alpha, exponent)
+                            : 0.0f;
 }
 
 LightSample sample_point_light(const PointLight& light, const Vec3f& p) {

@@ -26,6 +26,9 @@ std::optional<Vec3f> refract(const Vec3f& d, const Vec3f& n, float eta);
 Rgb phong_brdf(const Material& material, const Rgb& diffuse_albedo, const Vec3f& n, const Vec3f& wi,
                const Vec3f& wo);
 
+/// phong_brdf's specular lobe per unit specular colour: (e+2)/(2π)·max(0, r·wo)^e.
+float phong_lobe(float exponent, const Vec3f& n, const Vec3f& wi, const Vec3f& wo);
+
 /// The mean-normal length below which toksvig_exponent stops following it. Only a floor for
 /// the formula: at |n̄| = 0 with an exponent of 0 it is 0/0. Normals that cancel to 1e-3 already
 /// give an exponent below 1e-3/(1 − 1e-3) whatever e: a highlight spread over the hemisphere.

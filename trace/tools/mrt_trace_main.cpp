@@ -62,6 +62,8 @@ struct Arguments {
     bool quiet = false;
     // The cone tracers.
     float max_anisotropy = 8.0f;
+    float highlight_detail = 0.5f;
+    bool mean_highlights = false;
     bool no_level_blend = false;
     bool node_frames = false;
     bool keep_back_faces = false;
@@ -188,6 +190,8 @@ mrt::ConeOptions cone_options(const Arguments& args) {
     cone.traversal.triangle_weight = *mrt::kTriangleWeightNames.find(args.triangle_weight);
     cone.traversal.compositing = *mrt::kCompositingNames.find(args.abuffer);
     cone.traversal.max_anisotropy = args.max_anisotropy;
+    cone.traversal.highlight_level_scale = args.highlight_detail;
+    cone.traversal.highlight_mixture = !args.mean_highlights;
     cone.time_budget =
         args.time_budget > 0.0
             ? args.time_budget
@@ -438,6 +442,15 @@ int main(int argc, char** argv) {
                    "major axis (Wand & Strasser 5.1)")
         ->check(CLI::Range(1.0f, 1000.0f))
         ->default_val(8.0f);
+    app.add_option("--highlight-detail", args.highlight_detail,
+                   "cone: primary cones use the points of nodes whose normals spread wider than "
+                   "their highlight where their spacing is at most this fraction of the "
+                   "footprint (1: as any other node's)")
+        ->check(CLI::Range(0.05f, 1.0f))
+        ->default_val(0.5f);
+    app.add_flag("--mean-highlights", args.mean_highlights,
+                 "cone: each fragment's highlight from its mean normal alone (Toksvig), not the "
+                 "mixture of its points' and triangles' own");
     app.add_flag("--no-level-blend", args.no_level_blend,
                  "cone: use the chosen level's points alone, not blended with the next finer "
                  "level");
