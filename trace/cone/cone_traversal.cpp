@@ -1051,6 +1051,20 @@ class Walk {
         return at;
     }
 
+    /// The triangle's differentials across the cone's footprint at the hit, times `scale`,
+    /// projected along the ray onto the triangle's plane (Igehy's transfer).
+    static SurfaceDifferential footprint_differential(const ConeSpace& space,
+                                                      const TriangleAtHit& at, float scale) {
+        const Mat32f columns = space.ray.cone.basis() * (scale * space.ray.cone.at(at.t));
+        RayDifferential footprint;
+        footprint.dp_dx = columns.col(0);
+        footprint.dp_dy = columns.col(1);
+        const RayDifferential on_plane =
+            footprint.transfer(space.ray.direction, 0.0f, at.geometric);
+        return triangle_differential(at.positions.data(), at.normals.data(), at.uvs.data(), at.b1,
+                                     at.b2, on_plane.dp_dx, on_plane.dp_dy, Facing::Front);
+    }
+
     ConeSurface triangle_surface(const ConeSpace& space, std::uint32_t triangle,
                                  const TriangleAtHit& at) const {
         const Material& material =
@@ -1067,32 +1081,15 @@ class Walk {
         if (material.texture >= 0) {
             // The footprint at the hit, projected along the ray onto the triangle's plane
             // (Igehy's transfer), gives the texture-space footprint of the lookup (§4).
-            const Mat2f f = m_options.texture_footprint_scale * space.ray.cone.at(at.t);
-            const Mat32f columns = space.ray.cone.basis() * f;
-            RayDifferential footprint;
-            footprint.dp_dx = columns.col(0);
-            footprint.dp_dy = columns.col(1);
-            const RayDifferential on_plane =
-                footprint.transfer(space.ray.direction, 0.0f, at.geometric);
             const SurfaceDifferential sd =
-                triangle_differential(at.positions.data(), at.normals.data(), at.uvs.data(), at.b1,
-                                      at.b2, on_plane.dp_dx, on_plane.dp_dy, Facing::Front);
+                footprint_differential(space, at, m_options.texture_footprint_scale);
             s.diffuse = m_geometry.textures().diffuse(material, at.uv, {sd.duv_dx, sd.duv_dy});
         } else {
             s.diffuse = material.diffuse;
         }
         if (specular) {
-            // The turn of the interpolated normal across the footprint, projected onto the
-            // triangle's plane (Igehy's transfer) as a texture lookup's is.
-            const Mat32f columns = space.ray.cone.basis() * space.ray.cone.at(at.t);
-            RayDifferential footprint;
-            footprint.dp_dx = columns.col(0);
-            footprint.dp_dy = columns.col(1);
-            const RayDifferential on_plane =
-                footprint.transfer(space.ray.direction, 0.0f, at.geometric);
-            const SurfaceDifferential sd =
-                triangle_differential(at.positions.data(), at.normals.data(), at.uvs.data(), at.b1,
-                                      at.b2, on_plane.dp_dx, on_plane.dp_dy, Facing::Front);
+            // The turn of the interpolated normal across the footprint.
+            const SurfaceDifferential sd = footprint_differential(space, at, 1.0f);
             s.lobe_spread = mirror_spread(sd.dn_dx, sd.dn_dy);
         }
         return s;
