@@ -91,7 +91,9 @@ std::array<float, kHighlightLights> HighlightLights::at(float t, const Vec3f& no
     if (!(length > 0.0f)) {
         return lobes;
     }
-    const Vec3f n = normal / length;
+    // Facing the eye, as the shader turns the fragment's normal (a refracted cone meets a glass
+    // surface from inside).
+    const Vec3f n = (normal.dot(m_direction) > 0.0f ? -1.0f : 1.0f) * normal / length;
     const Vec3f p = m_origin + t * m_direction;
     const float widened = widened_exponent(toksvig_exponent(exponent, length), spread);
     for (std::size_t l = 0; l < m_count; ++l) {
