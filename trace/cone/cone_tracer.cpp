@@ -170,7 +170,7 @@ class ConeTracer {
         ConeTraversalStats& stats =
             kind == Kind::Primary ? work.stats.primary : work.stats.secondary;
         m_traversal.trace(ray, t_min, std::numeric_limits<float>::infinity(), buffer, stats,
-                          leaving, kind == Kind::Primary);
+                          leaving, kind == Kind::Primary || ray.cone.blurred);
         stats.abuffer += buffer.stats();
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         (kind == Kind::Primary ? work.stats.primary_seconds : work.stats.secondary_seconds) +=

@@ -1128,7 +1128,7 @@ class Walk {
     /// The surface the cone leaves (ConeTraversal::trace), kAnySurface where not known.
     std::uint32_t m_leaving;
     const HighlightLights& m_highlights;  ///< The shading cone's lights; none for shadow cones.
-    /// ConeTraversalOptions::highlight_level_scale for a primary cone, else 1.
+    /// ConeTraversalOptions::highlight_level_scale for a cone with finer glints, else 1.
     float m_highlight_level_scale;
     std::uint32_t m_spaces = 0;  ///< Spaces entered so far (the world is 0).
     static constexpr std::size_t kFrameCacheSize = 64;
@@ -1362,7 +1362,8 @@ ConeTraversal::ConeTraversal(const ConeGeometry& geometry, const ConeTraversalOp
 
 template <class Buffer>
 void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
-                             ConeTraversalStats& stats, std::uint32_t leaving, bool primary) const {
+                             ConeTraversalStats& stats, std::uint32_t leaving,
+                             bool finer_glints) const {
     ++stats.rays;
     ConeSpace world;
     world.ray = ray;
@@ -1374,14 +1375,14 @@ void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffe
             ? HighlightLights(m_geometry.scene(), ray.origin, ray.direction)
             : HighlightLights();
     Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max, leaving,
-                      highlights, primary ? m_options.highlight_level_scale : 1.0f);
+                      highlights, finer_glints ? m_options.highlight_level_scale : 1.0f);
     walk.object(world, m_geometry.view().world_object, 1.0f, SampleRange{});
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
                           ABuffer<ConeSurface>& buffer, ConeTraversalStats& stats,
-                          std::uint32_t leaving, bool primary) const {
-    traverse(ray, t_min, t_max, buffer, stats, leaving, primary);
+                          std::uint32_t leaving, bool finer_glints) const {
+    traverse(ray, t_min, t_max, buffer, stats, leaving, finer_glints);
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,

@@ -85,10 +85,11 @@ struct ConeTraversalOptions {
     /// Test an instance's root sphere in its group's space before mapping the cone into the
     /// instance (ConeInstanceBound); false enters every instance a node holds, to compare.
     bool instance_bounds = true;
-    /// Primary cones use the points of nodes whose points glint (GlintingNodes) where their
-    /// spacing is at most this fraction of the footprint's minor diameter, others' where it is
-    /// at most the diameter (§5.1). Chosen on the field, where the glass bunnies' glints are
-    /// most of the error (docs/cone-tracer.md, "Highlights").
+    /// Primary cones and blurred ones (rough reflections) use the points of nodes whose points
+    /// glint (GlintingNodes) where their spacing is at most this fraction of the footprint's
+    /// minor diameter, others' where it is at most the diameter (§5.1). Chosen on the field,
+    /// where the glass bunnies' glints are most of the error, and the glossy scene, whose rough
+    /// reflections average the spheres' glints (docs/cone-tracer.md, "Highlights").
     float highlight_level_scale = 0.5f;
     /// Each fragment's highlights from the mixture of its points' and triangles' own lobes
     /// (trace/cone/highlight_mixture.h); false: from its mean normal alone, Toksvig-widened.
@@ -269,11 +270,12 @@ class ConeTraversal {
     /// planes pass within its start (it cannot meet again the surface it starts on, and its
     /// footprint there is below the start's resolution), not those of another surface: a
     /// cone leaving a glass bunny's underside meets the floor it stands on.
-    /// `primary`: a camera's cone, which uses glinting nodes' points a level finer
-    /// (ConeTraversalOptions::highlight_level_scale).
+    /// `finer_glints`: the cone uses glinting nodes' points a level finer
+    /// (ConeTraversalOptions::highlight_level_scale; the cone tracer's primary cones and
+    /// blurred ones).
     void trace(const ConeRay& ray, float t_min, float t_max, ABuffer<ConeSurface>& buffer,
                ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface,
-               bool primary = false) const;
+               bool finer_glints = false) const;
     /// The same for a shadow cone: only the fragments' weights.
     void trace(const ConeRay& ray, float t_min, float t_max, ABuffer<ConeOpacity>& buffer,
                ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface) const;
@@ -284,7 +286,7 @@ class ConeTraversal {
   private:
     template <class Buffer>
     void traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
-                  ConeTraversalStats& stats, std::uint32_t leaving, bool primary) const;
+                  ConeTraversalStats& stats, std::uint32_t leaving, bool finer_glints) const;
 
     const ConeGeometry& m_geometry;
     ConeTraversalOptions m_options;

@@ -443,9 +443,9 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1.0f, 1000.0f))
         ->default_val(8.0f);
     app.add_option("--highlight-detail", args.highlight_detail,
-                   "cone: primary cones use the points of nodes whose normals spread wider than "
-                   "their highlight where their spacing is at most this fraction of the "
-                   "footprint (1: as any other node's)")
+                   "cone: primary and blurred cones use the points of nodes whose normals spread "
+                   "wider than their highlight where their spacing is at most this fraction of "
+                   "the footprint (1: as any other node's)")
         ->check(CLI::Range(0.05f, 1.0f))
         ->default_val(0.5f);
     app.add_flag("--mean-highlights", args.mean_highlights,
