@@ -155,9 +155,7 @@ class ConeTracer {
           m_traversal(geometry, options, stop),
           m_max_depth(max_depth),
           m_compositing(options.compositing),
-          m_lights(options.highlight_mixture
-                       ? HighlightLights(m_scene, Vec3f::Zero(), Vec3f::UnitZ())
-                       : HighlightLights()) {}
+          m_lights(options.highlight_mixture ? &geometry.highlight_lights() : nullptr) {}
 
     enum class Kind { Primary, Secondary };
 
@@ -264,11 +262,11 @@ class ConeTracer {
     /// (trace/cone/highlight_mixture.h). Exact where the contributors agree.
     float mixed_highlight(float exact, std::size_t light, const Hit& hit, const Material& material,
                           const std::array<float, kHighlightLights>& mixture) const {
-        if (light >= m_lights.count()) {
+        if (m_lights == nullptr || light >= m_lights->count()) {
             return exact;
         }
-        const float mean = m_lights.of_light(light, hit.position, hit.normal, -hit.direction,
-                                             material.phong_exponent);
+        const float mean = m_lights->of_light(light, hit.position, hit.normal, -hit.direction,
+                                              material.phong_exponent);
         return std::max(0.0f, exact + mixture[light] - mean);
     }
 
@@ -294,12 +292,13 @@ class ConeTracer {
             if (!(visible > 0.0f)) {
                 continue;
             }
-            result += visible * sample.irradiance * cosine * albedo / kPi;
+            result += visible * sample.irradiance * cosine *
+                      phong_brdf(material, albedo, ns, sample.wi, wo);
             if (specular) {
-                // phong_brdf's lobe times the cosine, mixed.
+                // phong_brdf's lobe times the cosine, moved to the mixture's.
                 const float exact = cosine * phong_lobe(material.phong_exponent, ns, sample.wi, wo);
                 result += visible * sample.irradiance * material.specular *
-                          mixed_highlight(exact, index, hit, material, highlights);
+                          (mixed_highlight(exact, index, hit, material, highlights) - exact);
             }
         }
         for (const EllipticalAreaLight& light : m_scene.area_lights) {
@@ -457,8 +456,8 @@ class ConeTracer {
     ConeTraversal m_traversal;
     int m_max_depth;
     Compositing m_compositing;
-    /// For the mean normal's side of the highlight mixture; no lights where it is off.
-    HighlightLights m_lights;
+    /// For the mean normal's side of the highlight mixture; null where it is off.
+    const HighlightLights* m_lights;
 };
 
 /// Sets a flag after a delay, unless cancelled first: the time guard, which has to stop

@@ -204,8 +204,8 @@ class Walk {
   public:
     Walk(const ConeGeometry& geometry, const ConeTraversalOptions& options,
          const std::atomic<bool>* stop, Buffer& buffer, ConeTraversalStats& stats, float t_min,
-         float t_max, std::uint32_t leaving, const HighlightLights& highlights,
-         float highlight_level_scale)
+         float t_max, std::uint32_t leaving, const HighlightLights* highlights,
+         const ConeRay& world_ray, float highlight_level_scale)
         : m_geometry(geometry),
           m_view(geometry.view()),
           m_options(options),
@@ -216,6 +216,8 @@ class Walk {
           m_t_max(t_max),
           m_leaving(leaving),
           m_highlights(highlights),
+          m_world_origin(world_ray.origin),
+          m_world_direction(world_ray.direction),
           m_highlight_level_scale(highlight_level_scale) {}
 
     void object(ConeSpace& space, std::uint32_t index, float weight, SampleRange samples) {
@@ -705,8 +707,10 @@ class Walk {
     /// The contribution's own highlights from the first lights (trace/cone/highlight_mixture.h)
     /// at world distance t along the axis.
     void add_highlights(ConeSurface& s, float t) const {
-        if (m_highlights.count() > 0 && (s.specular > 0.0f).any()) {
-            s.highlights = m_highlights.at(t, s.normal, s.phong_exponent, s.lobe_spread);
+        if (m_highlights != nullptr && m_highlights->count() > 0 && (s.specular > 0.0f).any()) {
+            s.highlights =
+                m_highlights->at(m_world_origin + t * m_world_direction, m_world_direction,
+                                 s.normal, s.phong_exponent, s.lobe_spread);
         }
     }
 
@@ -1127,7 +1131,11 @@ class Walk {
     float m_t_max;
     /// The surface the cone leaves (ConeTraversal::trace), kAnySurface where not known.
     std::uint32_t m_leaving;
-    const HighlightLights& m_highlights;  ///< The shading cone's lights; none for shadow cones.
+    /// The scene's lights where a shading cone mixes highlights; null otherwise (shadow cones,
+    /// ConeTraversalOptions::highlight_mixture off).
+    const HighlightLights* m_highlights;
+    Vec3f m_world_origin;  ///< The cone's axis, world space (its highlights are world space).
+    Vec3f m_world_direction;
     /// ConeTraversalOptions::highlight_level_scale for a cone with finer glints, else 1.
     float m_highlight_level_scale;
     std::uint32_t m_spaces = 0;  ///< Spaces entered so far (the world is 0).
@@ -1229,7 +1237,8 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
       m_textures(textures),
       m_closed(m_view),
       m_meshes_below(m_view),
-      m_glinting(m_view) {
+      m_glinting(m_view),
+      m_highlight_lights(scene) {
     m_to_object.reserve(m_view.instances.size());
     m_turn.reserve(m_view.instances.size());
     m_normal_to_group.reserve(m_view.instances.size());
@@ -1370,12 +1379,12 @@ void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffe
     world.start = start_radius(ray.cone);
     world.bounds = ConeSphereTest(ray.cone, m_options.max_anisotropy);
     world.apex = ApexEllipse::of(ray.cone, m_options.max_anisotropy);
-    const HighlightLights highlights =
+    const HighlightLights* highlights =
         std::is_same_v<typename Buffer::Attributes, ConeSurface> && m_options.highlight_mixture
-            ? HighlightLights(m_geometry.scene(), ray.origin, ray.direction)
-            : HighlightLights();
+            ? &m_geometry.highlight_lights()
+            : nullptr;
     Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max, leaving,
-                      highlights, finer_glints ? m_options.highlight_level_scale : 1.0f);
+                      highlights, ray, finer_glints ? m_options.highlight_level_scale : 1.0f);
     walk.object(world, m_geometry.view().world_object, 1.0f, SampleRange{});
 }
 

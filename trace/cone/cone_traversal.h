@@ -44,6 +44,7 @@
 #include "trace/cone/cone_triangle.h"
 #include "trace/cone/cone_triangle_block.h"
 #include "trace/cone/glinting_nodes.h"
+#include "trace/cone/highlight_mixture.h"
 #include "trace/cone/meshes_below.h"
 
 #include <array>
@@ -192,6 +193,8 @@ class ConeGeometry {
     const ClosedSurfaces& closed_surfaces() const { return m_closed; }
     const MeshesBelow& meshes_below() const { return m_meshes_below; }
     const GlintingNodes& glinting_nodes() const { return m_glinting; }
+    /// The scene's first lights, as the highlight mixture needs them.
+    const HighlightLights& highlight_lights() const { return m_highlight_lights; }
 
     const ConeNodeClusters& clusters(std::uint32_t node) const { return m_node_clusters[node]; }
     /// The bounding spheres of a node's children (a node with children only), tested together.
@@ -238,6 +241,7 @@ class ConeGeometry {
     ClosedSurfaces m_closed;
     MeshesBelow m_meshes_below;
     GlintingNodes m_glinting;
+    HighlightLights m_highlight_lights;
     std::vector<ConeNodeClusters> m_node_clusters;
     static constexpr std::uint32_t kNoChildren = 0xffffffffu;
     std::vector<std::uint32_t> m_child_block;  ///< Per node, into m_child_blocks.

@@ -40,8 +40,7 @@ float gaussian_highlight(float exponent, float mirror_cosine, float normal_cosin
     return lobe * (2.0f * kPi / exponent) * along * across / solid_angle;
 }
 
-HighlightLights::HighlightLights(const Scene& scene, const Vec3f& origin, const Vec3f& direction)
-    : m_origin(origin), m_direction(direction) {
+HighlightLights::HighlightLights(const Scene& scene) {
     for (const PointLight& light : scene.point_lights) {
         if (m_count == kHighlightLights) {
             return;
@@ -79,13 +78,14 @@ float HighlightLights::of_light(std::size_t light, const Vec3f& p, const Vec3f& 
         }
         solid_angle = std::min(2.0f * kPi, l.area * cosine / squared);
     }
-    const Vec3f mirror = 2.0f * n.dot(wo) * n - wo;
+    const Vec3f mirror = reflect(-wo, n);
     const float lobe = gaussian_highlight(exponent, mirror.dot(wi), n.dot(wi), solid_angle);
     return l.area > 0.0f ? solid_angle * lobe : lobe;
 }
 
-std::array<float, kHighlightLights> HighlightLights::at(float t, const Vec3f& normal,
-                                                        float exponent, float spread) const {
+std::array<float, kHighlightLights> HighlightLights::at(const Vec3f& p, const Vec3f& direction,
+                                                        const Vec3f& normal, float exponent,
+                                                        float spread) const {
     std::array<float, kHighlightLights> lobes{};
     const float length = normal.norm();
     if (!(length > 0.0f)) {
@@ -93,11 +93,10 @@ std::array<float, kHighlightLights> HighlightLights::at(float t, const Vec3f& no
     }
     // Facing the eye, as the shader turns the fragment's normal (a refracted cone meets a glass
     // surface from inside).
-    const Vec3f n = (normal.dot(m_direction) > 0.0f ? -1.0f : 1.0f) * normal / length;
-    const Vec3f p = m_origin + t * m_direction;
+    const Vec3f n = (normal.dot(direction) > 0.0f ? -1.0f : 1.0f) * normal / length;
     const float widened = widened_exponent(toksvig_exponent(exponent, length), spread);
     for (std::size_t l = 0; l < m_count; ++l) {
-        lobes[l] = of_light(l, p, n, -m_direction, widened);
+        lobes[l] = of_light(l, p, n, -direction, widened);
     }
     return lobes;
 }

@@ -56,21 +56,21 @@ inline float mirror_spread(const Vec3f& turn_x, const Vec3f& turn_y) {
 float gaussian_highlight(float exponent, float mirror_cosine, float normal_cosine,
                          float solid_angle);
 
-/// The lights of a scene as the mixture needs them, once per cone: where each is and how large
-/// it looks, and the cone's axis (world space).
+/// The lights of a scene as the mixture needs them, once per scene (ConeGeometry): where each is
+/// and how large it is (world space).
 class HighlightLights {
   public:
-    HighlightLights() = default;
-    HighlightLights(const Scene& scene, const Vec3f& origin, const Vec3f& direction);
+    explicit HighlightLights(const Scene& scene);
 
     std::size_t count() const { return m_count; }
 
-    /// The highlights (of_light) of light 0 … count() − 1 on a surface at world distance `t`
-    /// along the axis with normal `normal` (its length the agreement of the normals it stands
-    /// for, 1 for one normal; Toksvig's exponent widens `exponent` by it), seen along the axis.
+    /// The highlights (of_light) of light 0 … count() − 1 on a surface at p, seen along the unit
+    /// `direction`, with normal `normal` (its length the agreement of the normals it stands
+    /// for, 1 for one normal; Toksvig's exponent widens `exponent` by it).
     /// `spread`: the lobe widened further by it (widened_exponent), the turn of a triangle's
     /// normals across the footprint (ConeSurface::lobe_spread).
-    std::array<float, kHighlightLights> at(float t, const Vec3f& normal, float exponent,
+    std::array<float, kHighlightLights> at(const Vec3f& p, const Vec3f& direction,
+                                           const Vec3f& normal, float exponent,
                                            float spread = 0.0f) const;
 
     /// One light's highlight at the world point p with unit normal n, seen from the unit
@@ -90,8 +90,6 @@ class HighlightLights {
     };
     std::array<Light, kHighlightLights> m_lights{};
     std::size_t m_count = 0;
-    Vec3f m_origin = Vec3f::Zero();
-    Vec3f m_direction = Vec3f::UnitZ();
 };
 
 }  // namespace mrt

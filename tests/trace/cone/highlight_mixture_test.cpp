@@ -51,7 +51,7 @@ TEST(HighlightMixture, LobeIsTheExactHighlightOfTheLightWithinTenPerCentOfItsPea
     for (const float exponent : {20.0f, 60.0f, 300.0f}) {
         for (const float radius : {0.005f, 0.05f, 0.15f}) {
             const EllipticalAreaLight light = light_towards(to_light, radius);
-            const HighlightLights lights(scene_with(light), Vec3f::Zero(), -Vec3f::UnitZ());
+            const HighlightLights lights(scene_with(light));
             float peak = 0.0f;
             std::vector<std::pair<float, float>> values;
             for (const float offset : {0.0f, 0.5f, 1.0f, 2.0f, 3.0f}) {
@@ -78,24 +78,22 @@ TEST(HighlightMixture, LobeIsTheExactHighlightOfTheLightWithinTenPerCentOfItsPea
 }
 
 TEST(HighlightMixture, OneContributorsMixtureIsItsOwnWidenedHighlight) {
-    // The surface at the origin, 5 along the axis; the light near its mirror direction.
+    // The surface at the origin, seen along `direction`; the light near its mirror direction.
     const Vec3f direction = Vec3f(0.1f, -0.05f, -1.0f).normalized();
-    const float t = 5.0f;
-    const Vec3f origin = -t * direction;
     const Vec3f n = Vec3f(-0.3f, 0.05f, 1.0f).normalized();
     const EllipticalAreaLight light =
         light_towards(reflect(direction, n) + Vec3f(0.05f, 0.0f, 0.0f), 0.03f);
-    const HighlightLights lights(scene_with(light), origin, direction);
+    const HighlightLights lights(scene_with(light));
     ASSERT_EQ(lights.count(), 1u);
     for (const float length : {1.0f, 0.99f, 0.9f}) {
-        const float mixed = lights.at(t, length * n, 80.0f)[0];
+        const float mixed = lights.at(Vec3f::Zero(), direction, length * n, 80.0f)[0];
         const float own =
             lights.of_light(0, Vec3f::Zero(), n, -direction, toksvig_exponent(80.0f, length));
-        EXPECT_NEAR(mixed, own, 1e-4f * own) << length;
+        EXPECT_NEAR(mixed, own, 1e-4f * own) << length;  // the normal rescaled by its length
         EXPECT_GT(own, 0.0f);
     }
     // The lights past the first kHighlightLights are not mixed; none here.
-    EXPECT_EQ(lights.at(t, n, 80.0f)[1], 0.0f);
+    EXPECT_EQ(lights.at(Vec3f::Zero(), direction, n, 80.0f)[1], 0.0f);
 }
 
 TEST(HighlightMixture, TwoFacetsKeepTheGlintTheirMeanNormalMisses) {
@@ -110,12 +108,12 @@ TEST(HighlightMixture, TwoFacetsKeepTheGlintTheirMeanNormalMisses) {
     const Vec3f plus = tilted(delta);
     const Vec3f minus = tilted(-delta);
     const EllipticalAreaLight light = light_towards(reflect(-wo, plus), 0.01f);
-    const HighlightLights lights(scene_with(light), Vec3f(0.0f, 0.0f, 5.0f), -Vec3f::UnitZ());
+    const HighlightLights lights(scene_with(light));
     const double reference =
         0.5 * (area_light_phong_highlight(light, Vec3f::Zero(), plus, wo, exponent) +
                area_light_phong_highlight(light, Vec3f::Zero(), minus, wo, exponent));
-    const float mixture =
-        0.5f * (lights.at(5.0f, plus, exponent)[0] + lights.at(5.0f, minus, exponent)[0]);
+    const float mixture = 0.5f * (lights.at(Vec3f::Zero(), -wo, plus, exponent)[0] +
+                                  lights.at(Vec3f::Zero(), -wo, minus, exponent)[0]);
     const Vec3f mean = 0.5f * (plus + minus);
     const float mean_normal = area_light_phong_highlight(
         light, Vec3f::Zero(), mean.normalized(), wo, toksvig_exponent(exponent, mean.norm()));
