@@ -10,6 +10,7 @@
 #include "trace/render/camera_rays.h"
 #include "trace/render/film.h"
 #include "trace/render/method.h"
+#include "trace/render/pixel_contrast.h"
 #include "trace/render/pixel_filter.h"
 #include "trace/render/scattering.h"
 #include "trace/render/shading.h"
@@ -17,6 +18,7 @@
 #include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -554,18 +556,90 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
     };
     const PrimarySplit split = primary_split(camera, options.filter, scale);
     MRT_CHECK(split.cells >= 1 && split.cells <= kMaximumPrimaryCells && split.cell > 0.0f);
+    const auto trace_pixel = [&](float rx, float ry, ConeWork& local, RayCounters& counters) {
+        if (split.cells == 1) {
+            ++counters.primary;
+            return tracer.radiance(primary(rx, ry, scale), 0.0f, 0, 1.0f, ConeTracer::Kind::Primary,
+                                   local);
+        }
+        // A pixel wider than one cone can stand for: sub-cones on a grid over the filter's
+        // support, weighed by the filter, each the box of its cell.
+        Rgb radiance = Rgb::Zero();
+        float weight_sum = 0.0f;
+        for (int j = 0; j < split.cells; ++j) {
+            for (int i = 0; i < split.cells; ++i) {
+                const float dx = (static_cast<float>(i) + 0.5f) * split.cell - split.radius;
+                const float dy = (static_cast<float>(j) + 0.5f) * split.cell - split.radius;
+                const float w = options.filter.weight(dx, dy);
+                if (!(w > 0.0f)) {
+                    continue;
+                }
+                ++counters.primary;
+                radiance += w * tracer.radiance(primary(rx + dx, ry + dy, split.scale), 0.0f, 0,
+                                                1.0f, ConeTracer::Kind::Primary, local);
+                weight_sum += w;
+            }
+        }
+        MRT_DCHECK(weight_sum > 0.0f);
+        return Rgb(radiance / weight_sum);
+    };
+    // Refinement's 2 × 2 cones: half the width, at ±(√3/2)·σ from the centre on each axis, so
+    // that the four together have the pixel cone's variance σ² (σ² = scale²/2 for exp(−x²/s²);
+    // for the box of a pixel the offsets are ±1/4 and the cones are the boxes of the quarters).
+    // Where the four still differ by the contrast, each that differs from a neighbour is split
+    // the same way, down to cone_options.refine_levels.
+    const float contrast = cone_options.refine_contrast;
+    const auto trace_refined = [&](float rx, float ry, ConeWork& local, RayCounters& counters) {
+        const auto quad = [&](const auto& self, float cx, float cy, float width, int level) -> Rgb {
+            const float offset = std::sqrt(3.0f / 8.0f) * width;
+            const float half = 0.5f * width;
+            std::array<Rgb, 4> values;  // (−,−), (+,−), (−,+), (+,+)
+            for (int k = 0; k < 4; ++k) {
+                ++counters.primary;
+                values[k] = tracer.radiance(primary(cx + ((k & 1) != 0 ? offset : -offset),
+                                                    cy + ((k & 2) != 0 ? offset : -offset), half),
+                                            0.0f, 0, 1.0f, ConeTracer::Kind::Primary, local);
+            }
+            if (level < cone_options.refine_levels) {
+                const auto differs = [&](int a, int b) {
+                    return ((values[a] - values[b]).abs() > contrast).any();
+                };
+                // Each quarter's neighbours across the two edges it shares with the others.
+                std::array<bool, 4> divide{};
+                for (int k = 0; k < 4; ++k) {
+                    divide[k] = differs(k, k ^ 1) || differs(k, k ^ 2);
+                }
+                for (int k = 0; k < 4; ++k) {
+                    if (divide[k]) {
+                        values[k] = self(self, cx + ((k & 1) != 0 ? offset : -offset),
+                                         cy + ((k & 2) != 0 ? offset : -offset), half, level + 1);
+                    }
+                }
+            }
+            return Rgb(0.25f * (values[0] + values[1] + values[2] + values[3]));
+        };
+        return quad(quad, rx, ry, scale, 1);
+    };
+    // Pixels already traced as a grid of cones are not refined further.
+    const bool refine = cone_options.refine_contrast > 0.0f && split.cells == 1;
     // The cone is the pixel's filter: each pixel's one sample is its value.
     Film film(options.width, options.height, PixelFilter::box(), options.crop);
+    const PixelWindow& window = film.window();
+    // Refinement compares each pixel of the window with its neighbours, one pixel beyond it.
+    const PixelWindow around{std::max(0, window.x0 - 1), std::max(0, window.y0 - 1),
+                             std::min(options.width, window.x1 + 1),
+                             std::min(options.height, window.y1 + 1)};
+    PixelValues first(refine ? around : PixelWindow{});
     tbb::enumerable_thread_specific<ConeWork> work;
     const auto start = Clock::now();
     ConeRenderOutput out;
     {
         const Watchdog watchdog(cone_options.time_budget, stop);
+        const std::string label(
+            to_string(cone_options.traversal.points ? Method::Cone : Method::ConeClassic));
         out.render.rays = film.add_pass(
-            options.threads,
-            std::string(
-                to_string(cone_options.traversal.points ? Method::Cone : Method::ConeClassic)),
-            options.quiet, [&](int x, int y, FilmTile& tile, RayCounters& counters) {
+            options.threads, label, options.quiet,
+            [&](int x, int y, FilmTile& tile, RayCounters& counters) {
                 ConeWork& local = work.local();
                 ++local.stats.pixels;
                 if (stop.load(std::memory_order_relaxed)) {
@@ -573,41 +647,49 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
                 }
                 const float rx = static_cast<float>(x) + 0.5f;
                 const float ry = static_cast<float>(y) + 0.5f;
-                Rgb radiance = Rgb::Zero();
-                if (split.cells == 1) {
-                    ++counters.primary;
-                    radiance = tracer.radiance(primary(rx, ry, scale), 0.0f, 0, 1.0f,
-                                               ConeTracer::Kind::Primary, local);
-                } else {
-                    // A pixel wider than one cone can stand for: sub-cones on a grid over the
-                    // filter's support, weighed by the filter, each the box of its cell.
-                    float weight_sum = 0.0f;
-                    for (int j = 0; j < split.cells; ++j) {
-                        for (int i = 0; i < split.cells; ++i) {
-                            const float dx =
-                                (static_cast<float>(i) + 0.5f) * split.cell - split.radius;
-                            const float dy =
-                                (static_cast<float>(j) + 0.5f) * split.cell - split.radius;
-                            const float w = options.filter.weight(dx, dy);
-                            if (!(w > 0.0f)) {
-                                continue;
-                            }
-                            ++counters.primary;
-                            radiance +=
-                                w * tracer.radiance(primary(rx + dx, ry + dy, split.scale), 0.0f, 0,
-                                                    1.0f, ConeTracer::Kind::Primary, local);
-                            weight_sum += w;
-                        }
-                    }
-                    MRT_DCHECK(weight_sum > 0.0f);
-                    radiance /= weight_sum;
-                }
+                const Rgb radiance = trace_pixel(rx, ry, local, counters);
                 if (stop.load(std::memory_order_relaxed)) {
                     return;  // cut short: leave the pixel empty rather than wrong
                 }
                 ++local.stats.pixels_done;
-                tile.add_sample(rx, ry, radiance);
-            });
+                if (refine) {
+                    if (first.contains(x, y)) {
+                        first.set(x, y, radiance);  // each pixel by one tile: no race
+                    }
+                } else {
+                    tile.add_sample(rx, ry, radiance);
+                }
+            },
+            refine ? 1 : 0);
+        if (refine) {
+            const std::vector<std::uint8_t> high =
+                high_contrast_pixels(first, window, cone_options.refine_contrast);
+            film.clear();
+            const RayCounters refined = film.add_pass(
+                options.threads, label + " refinement", options.quiet,
+                [&](int x, int y, FilmTile& tile, RayCounters& counters) {
+                    if (!window.contains(x, y) || !first.known(x, y)) {
+                        return;
+                    }
+                    const float rx = static_cast<float>(x) + 0.5f;
+                    const float ry = static_cast<float>(y) + 0.5f;
+                    const std::size_t i = static_cast<std::size_t>(y - window.y0) *
+                                              static_cast<std::size_t>(window.width()) +
+                                          static_cast<std::size_t>(x - window.x0);
+                    Rgb radiance = first.at(x, y);
+                    if (high[i] != 0 && !stop.load(std::memory_order_relaxed)) {
+                        ConeWork& local = work.local();
+                        const Rgb finer = trace_refined(rx, ry, local, counters);
+                        // Stopped inside: the pixel keeps its one cone's value.
+                        if (!stop.load(std::memory_order_relaxed)) {
+                            radiance = finer;
+                            ++local.stats.refined_pixels;
+                        }
+                    }
+                    tile.add_sample(rx, ry, radiance);
+                });
+            out.render.rays += refined;
+        }
     }
     out.render.image = film.image();
     out.render.samples = 0;

@@ -46,6 +46,13 @@ struct ConeOptions {
     /// Seconds after which the render stops cleanly with the pixels done so far (0: no limit):
     /// the guard of classic cone tracing, which on a detailed scene runs for hours.
     double time_budget = 0.0;
+    /// Adaptive refinement (0: off): a pixel traced as one cone whose value differs from an edge
+    /// neighbour's by more than this in any channel (trace/render/pixel_contrast.h) is traced
+    /// again as 2 × 2 cones of half the width, which together have its filter's variance.
+    float refine_contrast = 0.0f;
+    /// Refinement splits a pixel's cone at most this many times (2 × 2 per level); from the second
+    /// level on, the quarters that differ from a neighbouring quarter by refine_contrast.
+    int refine_levels = 1;
 };
 
 /// Where the render's time went, and what its traversals did.
@@ -61,7 +68,8 @@ struct ConeRenderStats {
     std::uint64_t straddled_critical_angle = 0;  ///< Refractions split with total reflection.
     std::uint64_t pixels_done = 0;
     std::uint64_t pixels = 0;
-    bool stopped = false;  ///< The time budget ran out before every pixel was done.
+    std::uint64_t refined_pixels = 0;  ///< Traced again as 2 × 2 cones (refine_contrast).
+    bool stopped = false;              ///< The time budget ran out before every pixel was done.
 
     /// Named as --stats writes them.
     static constexpr auto fields = std::tuple{
@@ -74,6 +82,7 @@ struct ConeRenderStats {
         Field{"straddled_critical_angle", &ConeRenderStats::straddled_critical_angle},
         Field{"pixels_done", &ConeRenderStats::pixels_done},
         Field{"pixels", &ConeRenderStats::pixels},
+        Field{"refined_pixels", &ConeRenderStats::refined_pixels},
         Field{"stopped", &ConeRenderStats::stopped},
     };
     ConeRenderStats& operator+=(const ConeRenderStats& o) { return add_fields(*this, o); }
@@ -92,7 +101,8 @@ float cone_pixel_scale(const PixelFilter& filter);
 
 /// Renders the scene's camera with the cone tracer over `geometry` (the hierarchy file and the
 /// scene it stands for). options.width/height/threads/max_depth/quiet are read; options.filter
-/// sets the cone's width (cone_pixel_scale); one cone per pixel, at its centre. The progress bar
+/// sets the cone's width (cone_pixel_scale); one cone per pixel, at its centre, then 2 × 2 in the
+/// pixels cone_options.refine_contrast picks. The progress bar
 /// is labelled with the method cone_options.traversal.points makes it (cone or cone-classic).
 ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& options,
                              const ConeOptions& cone_options);

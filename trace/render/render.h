@@ -66,6 +66,7 @@ struct PixelWindow {
     std::size_t area() const {
         return static_cast<std::size_t>(width()) * static_cast<std::size_t>(height());
     }
+    bool contains(int x, int y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
     bool operator==(const PixelWindow&) const = default;
 };
 

@@ -63,6 +63,8 @@ struct Arguments {
     // The cone tracers.
     float max_anisotropy = 8.0f;
     float highlight_detail = 0.5f;
+    float refine = 0.7f;
+    int refine_levels = 2;
     bool mean_highlights = false;
     bool no_level_blend = false;
     bool node_frames = false;
@@ -192,6 +194,8 @@ mrt::ConeOptions cone_options(const Arguments& args) {
     cone.traversal.max_anisotropy = args.max_anisotropy;
     cone.traversal.highlight_level_scale = args.highlight_detail;
     cone.traversal.highlight_mixture = !args.mean_highlights;
+    cone.refine_contrast = args.refine;
+    cone.refine_levels = args.refine_levels;
     cone.time_budget =
         args.time_budget > 0.0
             ? args.time_budget
@@ -448,6 +452,17 @@ int main(int argc, char** argv) {
                    "the footprint (1: as any other node's)")
         ->check(CLI::Range(0.05f, 1.0f))
         ->default_val(0.5f);
+    app.add_option("--refine", args.refine,
+                   "cone methods: trace a pixel again as 2x2 cones of half the width where its "
+                   "value differs from a neighbour's by more than this in any channel (0: one "
+                   "cone per pixel)")
+        ->check(CLI::Range(0.0f, 1e30f))
+        ->default_val(0.7f);
+    app.add_option("--refine-levels", args.refine_levels,
+                   "cone methods: --refine splits a pixel's cone at most this many times, 2x2 "
+                   "each, the quarters that still differ from a neighbouring one")
+        ->check(CLI::Range(1, 4))
+        ->default_val(2);
     app.add_flag("--mean-highlights", args.mean_highlights,
                  "cone: each fragment's highlight from its mean normal alone (Toksvig), not the "
                  "mixture of its points' and triangles' own");

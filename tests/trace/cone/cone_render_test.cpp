@@ -1331,6 +1331,174 @@ TEST(ConeRender, CropsPasteToTheFrameBitForBit) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Adaptive refinement (ConeOptions::refine_contrast): pixels that differ from a neighbour are
+// traced again as 2 × 2 cones, which are the cones of a render at twice the resolution.
+
+/// The mean of the factor × factor block of `fine` at pixel (x, y) of a frame `factor` times
+/// coarser.
+Rgb block_mean(const Image& fine, int x, int y, int factor) {
+    Rgb sum = Rgb::Zero();
+    for (int j = 0; j < factor; ++j) {
+        for (int i = 0; i < factor; ++i) {
+            sum += fine.at(factor * x + i, factor * y + j);
+        }
+    }
+    return sum / static_cast<float>(factor * factor);
+}
+
+/// Whether a and b differ by more than `contrast` in some channel.
+bool differs_by(const Rgb& a, const Rgb& b, float contrast) {
+    return ((a - b).abs() > contrast).any();
+}
+
+/// Pixels of `image` that differ from an edge neighbour by more than `contrast`, recomputed here
+/// from the definition.
+std::vector<bool> contrasting_pixels(const Image& image, float contrast) {
+    std::vector<bool> out(static_cast<std::size_t>(image.width() * image.height()), false);
+    for (int y = 0; y < image.height(); ++y) {
+        for (int x = 0; x < image.width(); ++x) {
+            bool any = false;
+            for (const auto& [dx, dy] : {std::pair{-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
+                const int nx = x + dx, ny = y + dy;
+                if (nx >= 0 && ny >= 0 && nx < image.width() && ny < image.height()) {
+                    any = any || differs_by(image.at(x, y), image.at(nx, ny), contrast);
+                }
+            }
+            out[static_cast<std::size_t>(y * image.width() + x)] = any;
+        }
+    }
+    return out;
+}
+
+/// How far `got` is from `expected`, relative to the larger channel (at least 1).
+double relative_difference(const Rgb& got, const Rgb& expected) {
+    return static_cast<double>((got - expected).abs().maxCoeff() /
+                               std::max(1.0f, expected.abs().maxCoeff()));
+}
+
+TEST(ConeRefinement, RefinedPixelsAreTheirQuartersAtTwiceTheResolution) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const int width = 32;
+    const int height = 24;
+    const float contrast = 0.15f;
+    const ConeScene scene(scratch.path(), invariance_scene(1.0, {0, 0, 0}, width, height),
+                          "refine.json");
+    const Image plain = scene.render(width, height).render.image;
+    const Image twice = scene.render(2 * width, 2 * height).render.image;
+    const Image four = scene.render(4 * width, 4 * height).render.image;
+    ConeOptions refine;
+    refine.refine_contrast = contrast;
+    const ConeRenderOutput one_level = scene.render(width, height, refine);
+    const double kPrunedBound = 1e-3;
+    refine.refine_levels = 2;
+    const ConeRenderOutput two_levels = scene.render(width, height, refine);
+
+    const std::vector<bool> expected = contrasting_pixels(plain, contrast);
+    const auto refined_count =
+        static_cast<std::uint64_t>(std::count(expected.begin(), expected.end(), true));
+    EXPECT_EQ(one_level.stats.refined_pixels, refined_count);
+    EXPECT_EQ(two_levels.stats.refined_pixels, refined_count);
+    // Neither none nor all: the scene has edges, highlights and flat floor.
+    EXPECT_GT(refined_count, static_cast<std::uint64_t>(width * height / 20));
+    EXPECT_LT(refined_count, static_cast<std::uint64_t>(width * height / 2));
+
+    // Two levels: a quarter that differs from a neighbouring quarter is the mean of its own
+    // quarters, which are the cones of the render at four times the resolution.
+    int split_quarters = 0;
+    double worst_one = 0.0, worst_two = 0.0, worst_kept = 0.0;
+    int far_one = 0, far_two = 0;
+    for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) {
+            if (!expected[static_cast<std::size_t>(y * width + x)]) {
+                // Untouched pixels are the plain render's, bit for bit.
+                worst_kept = std::max(
+                    {worst_kept,
+                     relative_difference(one_level.render.image.at(x, y), plain.at(x, y)),
+                     relative_difference(two_levels.render.image.at(x, y), plain.at(x, y))});
+                continue;
+            }
+            const double one =
+                relative_difference(one_level.render.image.at(x, y), block_mean(twice, x, y, 2));
+            worst_one = std::max(worst_one, one);
+            far_one += one > kPrunedBound ? 1 : 0;
+            std::array<Rgb, 4> quarters;
+            for (int k = 0; k < 4; ++k) {
+                quarters[k] = twice.at(2 * x + (k & 1), 2 * y + (k >> 1));
+            }
+            Rgb sum = Rgb::Zero();
+            for (int k = 0; k < 4; ++k) {
+                const bool split = differs_by(quarters[k], quarters[k ^ 1], contrast) ||
+                                   differs_by(quarters[k], quarters[k ^ 2], contrast);
+                split_quarters += split ? 1 : 0;
+                sum += split ? block_mean(four, 2 * x + (k & 1), 2 * y + (k >> 1), 2) : quarters[k];
+            }
+            const double two =
+                relative_difference(two_levels.render.image.at(x, y), Rgb(0.25f * sum));
+            worst_two = std::max(worst_two, two);
+            far_two += two > kPrunedBound ? 1 : 0;
+        }
+    }
+    record("refined_pixels", static_cast<double>(refined_count));
+    record("split_quarters", split_quarters);
+    record("worst_one_level", worst_one);
+    record("worst_two_levels", worst_two);
+    EXPECT_EQ(worst_kept, 0.0);
+    EXPECT_GT(split_quarters, 0);
+    // The same cones: a quarter's offset in the coarser frame is exact in floats, as is the
+    // finer frame's pixel centre (measured: bit for bit). The bound leaves room for a
+    // last-place rounding of a direction, not for a wrong cone: a refined pixel differs from
+    // its neighbours by more than the contrast, 0.15.
+    EXPECT_EQ(far_one, 0) << worst_one;
+    EXPECT_EQ(far_two, 0) << worst_two;
+}
+
+TEST(ConeRefinement, RefinementBringsTheImageCloserToTheReference) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const int width = 48;
+    const int height = 36;
+    const ConeScene scene(scratch.path(), invariance_scene(1.0, {0, 0, 0}, width, height),
+                          "refine.json");
+    const Image reference = scene.distributed(width, height, 256);
+    const double plain = rmse(scene.render(width, height).render.image, reference);
+    ConeOptions refine;
+    refine.refine_contrast = 0.15f;
+    const double one_level = rmse(scene.render(width, height, refine).render.image, reference);
+    refine.refine_levels = 2;
+    const double two_levels = rmse(scene.render(width, height, refine).render.image, reference);
+    record("rmse_plain", plain);
+    record("rmse_one_level", one_level);
+    record("rmse_two_levels", two_levels);
+    EXPECT_LT(one_level, 0.9 * plain);
+    EXPECT_LT(two_levels, one_level);
+}
+
+TEST(ConeRefinement, CropsPasteToTheFrameBitForBit) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const int width = 40;
+    const int height = 30;
+    const ConeScene scene(scratch.path(), invariance_scene(1.0, {0, 0, 0}, width, height),
+                          "crop.json");
+    ConeOptions refine;
+    refine.refine_contrast = 0.15f;
+    refine.refine_levels = 2;
+    RenderOptions options = ConeScene::options(width, height);
+    const ConeRenderOutput full = render_cone(scene.geometry(), options, refine);
+    EXPECT_GT(full.stats.refined_pixels, 0u);
+    Image pasted(width, height);
+    for (const PixelWindow& window :
+         {PixelWindow{0, 0, 16, 11}, PixelWindow{16, 0, width, 11}, PixelWindow{0, 11, 16, height},
+          PixelWindow{16, 11, width, height}}) {
+        options.crop = window;
+        testing::paste(pasted, render_cone(scene.geometry(), options, refine).render.image, window);
+    }
+    EXPECT_TRUE(testing::same_bits(full.render.image, pasted));
+    // And for any thread count.
+    EXPECT_TRUE(testing::same_bits(
+        full.render.image,
+        render_cone(scene.geometry(), ConeScene::options(width, height, 1), refine).render.image));
+}
+
+// ---------------------------------------------------------------------------------------------
 // Stiff cases: a light shut in a solid, an eye on a surface's plane, extreme fields of view and
 // area lights larger than the scene. Each against the stochastic tracers (which agree with each
 // other in every one of them) or an analytic value.

@@ -77,7 +77,8 @@ TEST(MethodOptions, RefusalsNameTheMethodsThatTakeTheOption) {
     EXPECT_EQ(refusal_of("spp-max"), "only the distributed method takes it");
     EXPECT_EQ(refusal_of("max-anisotropy"), "only the cone methods take it");
     EXPECT_EQ(refusal_of("time-budget"), "only the distributed and the cone methods take it");
-    EXPECT_EQ(refusal_of("spp"), "the cone methods trace one cone per pixel");
+    EXPECT_EQ(refusal_of("spp"),
+              "the cone methods trace one cone per pixel (more where --refine asks)");
     const mrt::MethodOnlyOption classic{"x", {Method::Whitted, Method::ConeClassic}};
     EXPECT_EQ(mrt::refusal(classic), "only the whitted and the cone-classic methods take it");
 }

@@ -97,7 +97,7 @@ TEST(RenderStatsJson, WritesTheConeRecordWithItsOldKeysAndTheCountersItKept) {
     const nlohmann::json& cone = j["cone"];
     EXPECT_EQ(keys_of(cone),
               (Keys{"pixels", "pixels_done", "primary", "primary_traversal_thread_seconds",
-                    "secondary", "secondary_traversal_thread_seconds", "shadow",
+                    "refined_pixels", "secondary", "secondary_traversal_thread_seconds", "shadow",
                     "shadow_traversal_thread_seconds", "straddled_critical_angle", "stopped"}));
     const Keys traversal = {
         "abuffer_dropped", "abuffer_forced_merges", "back_faces_culled", "cones",
