@@ -250,8 +250,8 @@ class ConeTracer {
         const Hit hit = hit_of(s, fragment, ray);
         const Material material = footprint_material(s);
         const Rgb albedo = s.diffuse * local_share(s.reflectivity, s.transparency);
-        const Rgb local =
-            add_direct_light(m_scene.ambient * albedo, hit, material, albedo, s.highlights, work);
+        const Rgb local = add_direct_light(m_scene.ambient * albedo, hit, material, albedo,
+                                           s.highlights, weight, work);
         if (depth >= m_max_depth) {
             return local;
         }
@@ -273,9 +273,13 @@ class ConeTracer {
     }
 
     /// `result` plus what the lights deliver to the hit, each through its shadow cone.
-    /// `highlights`: the fragment's mixture of its contributors' highlights (ConeSurface).
+    /// `highlights`: the fragment's mixture of its contributors' highlights (ConeSurface);
+    /// `weight`: the fragment's share of the pixel. A light whose unshadowed contribution to the
+    /// pixel is below kMinimumWeight (as a branch of the ray tree not worth tracing) adds
+    /// nothing and costs no shadow cone: the mixture's highlights gave many fragments facing
+    /// away from a light a trace of one.
     Rgb add_direct_light(Rgb result, const Hit& hit, const Material& material, const Rgb& albedo,
-                         const std::array<float, kHighlightLights>& highlights,
+                         const std::array<float, kHighlightLights>& highlights, float weight,
                          ConeWork& work) const {
         const Vec3f& p = hit.position;
         const Vec3f& ns = hit.normal;
@@ -289,18 +293,21 @@ class ConeTracer {
             if (cosine <= 0.0f || (sample.irradiance <= 0.0f).all()) {
                 continue;
             }
-            ++work.rays.shadow;
-            const float visible = visibility(hit, sample, nullptr, cosine, work).transmittance;
-            if (!(visible > 0.0f)) {
-                continue;
-            }
-            result += visible * sample.irradiance * cosine *
-                      phong_brdf(material, albedo, ns, sample.wi, wo);
+            Rgb delivered =
+                sample.irradiance * cosine * phong_brdf(material, albedo, ns, sample.wi, wo);
             if (specular) {
                 // phong_brdf's lobe times the cosine, moved to the mixture's.
                 const float exact = cosine * phong_lobe(material.phong_exponent, ns, sample.wi, wo);
-                result += visible * sample.irradiance * material.specular *
-                          (mixed_highlight(exact, index, hit, material, highlights) - exact);
+                delivered += sample.irradiance * material.specular *
+                             (mixed_highlight(exact, index, hit, material, highlights) - exact);
+            }
+            if (!worth_tracing(weight, delivered.maxCoeff())) {
+                continue;
+            }
+            ++work.rays.shadow;
+            const float visible = visibility(hit, sample, nullptr, cosine, work).transmittance;
+            if (visible > 0.0f) {
+                result += visible * delivered;
             }
         }
         for (const EllipticalAreaLight& light : m_scene.area_lights) {
@@ -314,7 +321,7 @@ class ConeTracer {
                 terms.highlight =
                     mixed_highlight(terms.highlight, index, hit, material, highlights);
             }
-            if (!(terms.reflected(light, material, albedo).maxCoeff() > 0.0f)) {
+            if (!worth_tracing(weight, terms.reflected(light, material, albedo).maxCoeff())) {
                 continue;
             }
             ++work.rays.shadow;
@@ -590,7 +597,9 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
     // the same way, down to cone_options.refine_levels.
     const float contrast = cone_options.refine_contrast;
     const auto trace_refined = [&](float rx, float ry, ConeWork& local, RayCounters& counters) {
-        const auto quad = [&](const auto& self, float cx, float cy, float width, int level) -> Rgb {
+        // `share`: each of the four cones' part of the pixel, their path weight.
+        const auto quad = [&](const auto& self, float cx, float cy, float width, int level,
+                              float share) -> Rgb {
             const float offset = std::sqrt(3.0f / 8.0f) * width;
             const float half = 0.5f * width;
             std::array<Rgb, 4> values;  // (−,−), (+,−), (−,+), (+,+)
@@ -598,7 +607,7 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
                 ++counters.primary;
                 values[k] = tracer.radiance(primary(cx + ((k & 1) != 0 ? offset : -offset),
                                                     cy + ((k & 2) != 0 ? offset : -offset), half),
-                                            0.0f, 0, 1.0f, ConeTracer::Kind::Primary, local);
+                                            0.0f, 0, share, ConeTracer::Kind::Primary, local);
             }
             if (level < cone_options.refine_levels) {
                 const auto differs = [&](int a, int b) {
@@ -612,13 +621,14 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
                 for (int k = 0; k < 4; ++k) {
                     if (divide[k]) {
                         values[k] = self(self, cx + ((k & 1) != 0 ? offset : -offset),
-                                         cy + ((k & 2) != 0 ? offset : -offset), half, level + 1);
+                                         cy + ((k & 2) != 0 ? offset : -offset), half, level + 1,
+                                         0.25f * share);
                     }
                 }
             }
             return Rgb(0.25f * (values[0] + values[1] + values[2] + values[3]));
         };
-        return quad(quad, rx, ry, scale, 1);
+        return quad(quad, rx, ry, scale, 1, 0.25f);
     };
     // Pixels already traced as a grid of cones are not refined further.
     const bool refine = cone_options.refine_contrast > 0.0f && split.cells == 1;
