@@ -1313,22 +1313,29 @@ TEST(ConeRender, ContactPenumbraOfTheSoftShadowSceneIsTheReferencesWithinTenPerC
     EXPECT_NEAR(mean_red(cone) / mean_red(reference), 1.0, 0.1);
 }
 
-TEST(ConeRender, CropsPasteToTheFrameBitForBit) {
+/// Renders the 40 × 30 invariance scene whole and as four crops pasted together with `cone`
+/// (whose options may refine, and so trace a margin around each crop); the whole frame's image.
+Image expect_crops_paste_to_the_frame(const ConeOptions& cone) {
     const testing::ScratchDirectory scratch("mrt_cone_render_test");
     const int width = 40;
     const int height = 30;
     const ConeScene scene(scratch.path(), invariance_scene(1.0, {0, 0, 0}, width, height),
                           "crop.json");
     RenderOptions options = ConeScene::options(width, height);
-    const Image full = render_cone(scene.geometry(), options, {}).render.image;
+    const Image full = render_cone(scene.geometry(), options, cone).render.image;
     Image pasted(width, height);
     for (const PixelWindow& window :
          {PixelWindow{0, 0, 16, 11}, PixelWindow{16, 0, width, 11}, PixelWindow{0, 11, 16, height},
           PixelWindow{16, 11, width, height}}) {
         options.crop = window;
-        testing::paste(pasted, render_cone(scene.geometry(), options, {}).render.image, window);
+        testing::paste(pasted, render_cone(scene.geometry(), options, cone).render.image, window);
     }
     EXPECT_TRUE(testing::same_bits(full, pasted));
+    return full;
+}
+
+TEST(ConeRender, CropsPasteToTheFrameBitForBit) {
+    expect_crops_paste_to_the_frame({});
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1475,30 +1482,17 @@ TEST(ConeRefinement, RefinementBringsTheImageCloserToTheReference) {
     EXPECT_LT(two_levels, one_level);
 }
 
-TEST(ConeRefinement, CropsPasteToTheFrameBitForBit) {
-    const testing::ScratchDirectory scratch("mrt_cone_render_test");
-    const int width = 40;
-    const int height = 30;
-    const ConeScene scene(scratch.path(), invariance_scene(1.0, {0, 0, 0}, width, height),
-                          "crop.json");
+TEST(ConeRefinement, CropsPasteToTheFrameBitForBitForAnyThreadCount) {
     ConeOptions refine;
     refine.refine_contrast = 0.15f;
     refine.refine_levels = 2;
-    RenderOptions options = ConeScene::options(width, height);
-    const ConeRenderOutput full = render_cone(scene.geometry(), options, refine);
-    EXPECT_GT(full.stats.refined_pixels, 0u);
-    Image pasted(width, height);
-    for (const PixelWindow& window :
-         {PixelWindow{0, 0, 16, 11}, PixelWindow{16, 0, width, 11}, PixelWindow{0, 11, 16, height},
-          PixelWindow{16, 11, width, height}}) {
-        options.crop = window;
-        testing::paste(pasted, render_cone(scene.geometry(), options, refine).render.image, window);
-    }
-    EXPECT_TRUE(testing::same_bits(full.render.image, pasted));
-    // And for any thread count.
-    EXPECT_TRUE(testing::same_bits(
-        full.render.image,
-        render_cone(scene.geometry(), ConeScene::options(width, height, 1), refine).render.image));
+    const Image full = expect_crops_paste_to_the_frame(refine);
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    const ConeScene scene(scratch.path(), invariance_scene(1.0, {0, 0, 0}, 40, 30), "crop.json");
+    const ConeRenderOutput one_thread =
+        render_cone(scene.geometry(), ConeScene::options(40, 30, 1), refine);
+    EXPECT_GT(one_thread.stats.refined_pixels, 0u);
+    EXPECT_TRUE(testing::same_bits(full, one_thread.render.image));
 }
 
 // ---------------------------------------------------------------------------------------------
