@@ -26,6 +26,7 @@
 #include <mutex>
 #include <ostream>
 #include <thread>
+#include <vector>
 
 namespace mrt {
 
@@ -106,13 +107,22 @@ constexpr float kMaximumPrimaryAngle = 0.035f;
 /// nearly 180° costs per pixel, where the cones' first-order footprint is already far off anyway.
 constexpr int kMaximumPrimaryCells = 64;
 
+/// One of the cones a wide pixel is split into: its offset from the pixel centre, in pixels, and
+/// its share of the pixel (the filter's weight there, normalised over the grid).
+struct SubCone {
+    float dx = 0.0f;
+    float dy = 0.0f;
+    float share = 1.0f;
+};
+
 /// How a pixel is split into sub-cones: `cells` × `cells` over the filter's support
-/// [−radius, radius]², each cell `cell` pixels wide with the cone width `scale` of its box.
+/// [−radius, radius]², each cell `cell` pixels wide with the cone width `scale` of its box; the
+/// cells the filter weighs, the same for every pixel.
 struct PrimarySplit {
     int cells = 1;
-    float radius = 0.0f;
     float cell = 1.0f;
     float scale = 1.0f;
+    std::vector<SubCone> cones;
 };
 
 PrimarySplit primary_split(const CameraRays& camera, const PixelFilter& filter, float scale) {
@@ -123,13 +133,28 @@ PrimarySplit primary_split(const CameraRays& camera, const PixelFilter& filter, 
     if (!(angle > kMaximumPrimaryAngle)) {
         return split;
     }
-    split.radius = filter.radius;
     const float support = 2.0f * filter.radius;
     split.cells =
         static_cast<int>(std::min(static_cast<float>(kMaximumPrimaryCells),
                                   std::ceil(support * angle / (scale * kMaximumPrimaryAngle))));
     split.cell = support / static_cast<float>(split.cells);
     split.scale = cone_pixel_scale(PixelFilter::box()) * split.cell;
+    float weight_sum = 0.0f;
+    for (int j = 0; j < split.cells; ++j) {
+        for (int i = 0; i < split.cells; ++i) {
+            const float dx = (static_cast<float>(i) + 0.5f) * split.cell - filter.radius;
+            const float dy = (static_cast<float>(j) + 0.5f) * split.cell - filter.radius;
+            const float w = filter.weight(dx, dy);
+            if (w > 0.0f) {
+                split.cones.push_back({dx, dy, w});
+                weight_sum += w;
+            }
+        }
+    }
+    MRT_CHECK(weight_sum > 0.0f);
+    for (SubCone& cone : split.cones) {
+        cone.share /= weight_sum;
+    }
     return split;
 }
 
@@ -177,7 +202,7 @@ class ConeTracer {
             seconds;
         const CompositeResult result = buffer.composite(
             [&](const ConeSurface& surface, const Fragment<ConeSurface>& f, float share) {
-                return shade(surface, f, ray, depth, weight * share, work);
+                return shade(surface, f, ray, depth, weight, share, work);
             });
         return result.radiance + result.transmittance * m_scene.background;
     }
@@ -244,9 +269,11 @@ class ConeTracer {
         return material;
     }
 
+    /// The fragment's radiance; `weight`: the cone's path weight, `share`: the fragment's part of
+    /// the cone.
     Rgb shade(const ConeSurface& s, const Fragment<ConeSurface>& fragment, const ConeRay& ray,
-              int depth, float weight, ConeWork& work) const {
-        MRT_DCHECK(std::isfinite(weight) && weight > 0.0f);
+              int depth, float weight, float share, ConeWork& work) const {
+        MRT_DCHECK(std::isfinite(weight * share) && weight * share > 0.0f);
         const Hit hit = hit_of(s, fragment, ray);
         const Material material = footprint_material(s);
         const Rgb albedo = s.diffuse * local_share(s.reflectivity, s.transparency);
@@ -255,7 +282,7 @@ class ConeTracer {
         if (depth >= m_max_depth) {
             return local;
         }
-        return add_secondary(local, s, hit, depth, weight, work);
+        return add_secondary(local, s, hit, depth, weight * share, work);
     }
 
     /// The highlight of light `light` (HighlightLights' order) for a fragment whose mean normal's
@@ -274,10 +301,13 @@ class ConeTracer {
 
     /// `result` plus what the lights deliver to the hit, each through its shadow cone.
     /// `highlights`: the fragment's mixture of its contributors' highlights (ConeSurface);
-    /// `weight`: the fragment's share of the pixel. A light whose unshadowed contribution to the
-    /// pixel is below kMinimumWeight (as a branch of the ray tree not worth tracing) adds
-    /// nothing and costs no shadow cone: the mixture's highlights gave many fragments facing
-    /// away from a light a trace of one.
+    /// `weight`: the path weight of the cone the fragment is in. A light whose unshadowed
+    /// radiance, times that weight, is below kMinimumWeight (as a branch of the ray tree not worth
+    /// tracing) adds nothing and costs no shadow cone: the mixture's highlights gave many
+    /// fragments facing away from a light a trace of one. The cone's weight, not the fragment's
+    /// share of it: the shares of a cone's fragments add up to at most 1, so what the cone loses
+    /// to the bound stays below it, where a bound on each share would let sixteen fragments
+    /// each lose nearly as much.
     Rgb add_direct_light(Rgb result, const Hit& hit, const Material& material, const Rgb& albedo,
                          const std::array<float, kHighlightLights>& highlights, float weight,
                          ConeWork& work) const {
@@ -562,7 +592,8 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
         return ray;
     };
     const PrimarySplit split = primary_split(camera, options.filter, scale);
-    MRT_CHECK(split.cells >= 1 && split.cells <= kMaximumPrimaryCells && split.cell > 0.0f);
+    MRT_CHECK(split.cells >= 1 && split.cells <= kMaximumPrimaryCells && split.cell > 0.0f &&
+              (split.cells == 1 || !split.cones.empty()));
     const auto trace_pixel = [&](float rx, float ry, ConeWork& local, RayCounters& counters) {
         if (split.cells == 1) {
             ++counters.primary;
@@ -570,25 +601,17 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
                                    local);
         }
         // A pixel wider than one cone can stand for: sub-cones on a grid over the filter's
-        // support, weighed by the filter, each the box of its cell.
+        // support, weighed by the filter, each the box of its cell. Each is the pixel's value
+        // where it looks, so its ray tree is pruned as a whole pixel's (path weight 1): with
+        // their shares as path weights a 1×1 frame's 4096 cones lost every light to the bound.
         Rgb radiance = Rgb::Zero();
-        float weight_sum = 0.0f;
-        for (int j = 0; j < split.cells; ++j) {
-            for (int i = 0; i < split.cells; ++i) {
-                const float dx = (static_cast<float>(i) + 0.5f) * split.cell - split.radius;
-                const float dy = (static_cast<float>(j) + 0.5f) * split.cell - split.radius;
-                const float w = options.filter.weight(dx, dy);
-                if (!(w > 0.0f)) {
-                    continue;
-                }
-                ++counters.primary;
-                radiance += w * tracer.radiance(primary(rx + dx, ry + dy, split.scale), 0.0f, 0,
-                                                1.0f, ConeTracer::Kind::Primary, local);
-                weight_sum += w;
-            }
+        for (const SubCone& cone : split.cones) {
+            ++counters.primary;
+            radiance +=
+                cone.share * tracer.radiance(primary(rx + cone.dx, ry + cone.dy, split.scale), 0.0f,
+                                             0, 1.0f, ConeTracer::Kind::Primary, local);
         }
-        MRT_DCHECK(weight_sum > 0.0f);
-        return Rgb(radiance / weight_sum);
+        return radiance;
     };
     // Refinement's 2 × 2 cones: half the width, at ±(√3/2)·σ from the centre on each axis, so
     // that the four together have the pixel cone's variance σ² (σ² = scale²/2 for exp(−x²/s²);
@@ -597,9 +620,9 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
     // the same way, down to cone_options.refine_levels.
     const float contrast = cone_options.refine_contrast;
     const auto trace_refined = [&](float rx, float ry, ConeWork& local, RayCounters& counters) {
-        // `share`: each of the four cones' part of the pixel, their path weight.
-        const auto quad = [&](const auto& self, float cx, float cy, float width, int level,
-                              float share) -> Rgb {
+        // Each cone's ray tree pruned as a whole pixel's, as the grid's (trace_pixel): they are
+        // the cones of a render at twice (four times) the resolution.
+        const auto quad = [&](const auto& self, float cx, float cy, float width, int level) -> Rgb {
             const float offset = std::sqrt(3.0f / 8.0f) * width;
             const float half = 0.5f * width;
             std::array<Rgb, 4> values;  // (−,−), (+,−), (−,+), (+,+)
@@ -607,7 +630,7 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
                 ++counters.primary;
                 values[k] = tracer.radiance(primary(cx + ((k & 1) != 0 ? offset : -offset),
                                                     cy + ((k & 2) != 0 ? offset : -offset), half),
-                                            0.0f, 0, share, ConeTracer::Kind::Primary, local);
+                                            0.0f, 0, 1.0f, ConeTracer::Kind::Primary, local);
             }
             if (level < cone_options.refine_levels) {
                 const auto differs = [&](int a, int b) {
@@ -621,14 +644,13 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
                 for (int k = 0; k < 4; ++k) {
                     if (divide[k]) {
                         values[k] = self(self, cx + ((k & 1) != 0 ? offset : -offset),
-                                         cy + ((k & 2) != 0 ? offset : -offset), half, level + 1,
-                                         0.25f * share);
+                                         cy + ((k & 2) != 0 ? offset : -offset), half, level + 1);
                     }
                 }
             }
             return Rgb(0.25f * (values[0] + values[1] + values[2] + values[3]));
         };
-        return quad(quad, rx, ry, scale, 1, 0.25f);
+        return quad(quad, rx, ry, scale, 1);
     };
     // Pixels already traced as a grid of cones are not refined further.
     const bool refine = cone_options.refine_contrast > 0.0f && split.cells == 1;
@@ -674,7 +696,7 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
         if (refine) {
             const std::vector<std::uint8_t> high =
                 high_contrast_pixels(first, window, cone_options.refine_contrast);
-            film.clear();
+            // Pass 1 splatted nothing when refining: this pass writes every pixel.
             const RayCounters refined = film.add_pass(
                 options.threads, label + " refinement", options.quiet,
                 [&](int x, int y, FilmTile& tile, RayCounters& counters) {
@@ -683,11 +705,8 @@ ConeRenderOutput render_cone(const ConeGeometry& geometry, const RenderOptions& 
                     }
                     const float rx = static_cast<float>(x) + 0.5f;
                     const float ry = static_cast<float>(y) + 0.5f;
-                    const std::size_t i = static_cast<std::size_t>(y - window.y0) *
-                                              static_cast<std::size_t>(window.width()) +
-                                          static_cast<std::size_t>(x - window.x0);
                     Rgb radiance = first.at(x, y);
-                    if (high[i] != 0 && !stop.load(std::memory_order_relaxed)) {
+                    if (high[window.offset(x, y)] != 0 && !stop.load(std::memory_order_relaxed)) {
                         ConeWork& local = work.local();
                         const Rgb finer = trace_refined(rx, ry, local, counters);
                         // Stopped inside: the pixel keeps its one cone's value.

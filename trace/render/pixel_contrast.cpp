@@ -29,9 +29,7 @@ std::vector<std::uint8_t> high_contrast_pixels(const PixelValues& values, const 
                     differs = differs || ((values.at(nx, ny) - value).abs() > contrast).any();
                 }
             }
-            high[static_cast<std::size_t>(y - window.y0) *
-                     static_cast<std::size_t>(window.width()) +
-                 static_cast<std::size_t>(x - window.x0)] = differs ? 1 : 0;
+            high[window.offset(x, y)] = differs ? 1 : 0;
         }
     }
     return high;

@@ -22,26 +22,20 @@ class PixelValues {
     bool contains(int x, int y) const { return m_region.contains(x, y); }
     /// Pixel (x, y) of the frame, inside region().
     void set(int x, int y, const Rgb& value) {
-        const std::size_t i = index(x, y);
+        const std::size_t i = m_region.offset(x, y);
         m_values[i] = value;
         m_known[i] = 1;
     }
-    bool known(int x, int y) const { return m_known[index(x, y)] != 0; }
-    const Rgb& at(int x, int y) const { return m_values[index(x, y)]; }
+    bool known(int x, int y) const { return m_known[m_region.offset(x, y)] != 0; }
+    const Rgb& at(int x, int y) const { return m_values[m_region.offset(x, y)]; }
 
   private:
-    std::size_t index(int x, int y) const {
-        return static_cast<std::size_t>(y - m_region.y0) *
-                   static_cast<std::size_t>(m_region.width()) +
-               static_cast<std::size_t>(x - m_region.x0);
-    }
-
     PixelWindow m_region;
     std::vector<Rgb> m_values;
     std::vector<std::uint8_t> m_known;
 };
 
-/// For every pixel of `window` (row-major, window-relative): whether it is known and some known
+/// For every pixel of `window` (at window.offset): whether it is known and some known
 /// edge neighbour (left, right, above, below) differs from it by more than `contrast` in any
 /// channel. Values that are not finite never count as contrast.
 std::vector<std::uint8_t> high_contrast_pixels(const PixelValues& values, const PixelWindow& window,

@@ -67,6 +67,11 @@ struct PixelWindow {
         return static_cast<std::size_t>(width()) * static_cast<std::size_t>(height());
     }
     bool contains(int x, int y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
+    /// Row-major index of pixel (x, y) of the frame, inside the window.
+    std::size_t offset(int x, int y) const {
+        return static_cast<std::size_t>(y - y0) * static_cast<std::size_t>(width()) +
+               static_cast<std::size_t>(x - x0);
+    }
     bool operator==(const PixelWindow&) const = default;
 };
 
