@@ -96,6 +96,10 @@ struct ConeSurface {
         transparency += o.transparency;
         roughness += o.roughness;
         ior += o.ior;
+        lobe_spread += o.lobe_spread;
+        for (std::size_t l = 0; l < kHighlightLights; ++l) {
+            highlights[l] += o.highlights[l];
+        }
         if (o.shape_weight > shape_weight) {
             shape_weight = o.shape_weight;
             shape = o.shape;
