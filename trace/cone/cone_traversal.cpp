@@ -219,6 +219,7 @@ class Walk {
           m_options(options),
           m_stop(stop),
           m_buffer(buffer),
+          m_boxes(box_masks(buffer.sample_pattern())),
           m_stats(stats),
           m_t_min(t_min),
           m_t_max(t_max),
@@ -701,17 +702,16 @@ class Walk {
         // the disc (four table loads) tells, before the disc's form and its 64 tests.
         const Vec2f centre = masks.map.map(offset);
         const float reach = radius * masks.reach_per_radius;
-        const SamplePattern pattern = m_buffer.sample_pattern();
         if ((masks.samples & ~held &
-             box_mask(centre.x() - reach, centre.x() + reach, centre.y() - reach,
-                      centre.y() + reach, pattern)) == 0) {
+             m_boxes.of(centre.x() - reach, centre.x() + reach, centre.y() - reach,
+                        centre.y() + reach)) == 0) {
             return 0;
         }
         const Vec2f r =
             masks.root * Vec2f(normal.dot(space.ray.cone.u), normal.dot(space.ray.cone.v));
         const Mat2f form =
             (masks.square + r * r.transpose() / (cosine * cosine)) / (radius * radius);
-        return masks.samples & ellipse_mask(centre, form, pattern);
+        return masks.samples & ellipse_mask(centre, form, m_buffer.sample_pattern());
     }
 
     /// The contribution's own highlights from the first lights (trace/cone/highlight_mixture.h)
@@ -995,11 +995,10 @@ class Walk {
                                                       exact[1].map(vertices[1].offset),
                                                       exact[2].map(vertices[2].offset)}
                                : mapped.points();
-                const CoverageMask box =
-                    box_mask(std::min({y[0].x(), y[1].x(), y[2].x()}),
-                             std::max({y[0].x(), y[1].x(), y[2].x()}),
-                             std::min({y[0].y(), y[1].y(), y[2].y()}),
-                             std::max({y[0].y(), y[1].y(), y[2].y()}), m_buffer.sample_pattern());
+                const CoverageMask box = m_boxes.of(std::min({y[0].x(), y[1].x(), y[2].x()}),
+                                                    std::max({y[0].x(), y[1].x(), y[2].x()}),
+                                                    std::min({y[0].y(), y[1].y(), y[2].y()}),
+                                                    std::max({y[0].y(), y[1].y(), y[2].y()}));
                 if ((range & box & ~held) == 0) {
                     return 0;
                 }
@@ -1136,6 +1135,7 @@ class Walk {
     const ConeTraversalOptions& m_options;
     const std::atomic<bool>* m_stop;
     Buffer& m_buffer;
+    const BoxMasks& m_boxes;  ///< Of the buffer's sample pattern.
     ConeTraversalStats& m_stats;
     float m_t_min;
     float m_t_max;

@@ -105,80 +105,43 @@ std::array<CoverageMask, kCoverageSamples> make_neighbours(const CoverageSamples
     return neighbours;
 }
 
-/// The per-axis tables of box_mask: below[a][k] holds the samples whose coordinate a is at most
-/// edge k, above[a][k] those at least edge k, edges spaced `bin` apart from −extent to +extent,
-/// the samples' largest coordinate.
-struct BoxTables {
-    float extent = 0.0f;
-    float bins_per_unit = 0.0f;
-    std::array<std::array<CoverageMask, kBoxBins + 1>, 2> below{};
-    std::array<std::array<CoverageMask, kBoxBins + 1>, 2> above{};
+}  // namespace
 
-    explicit BoxTables(const CoverageSamples& s) {
-        for (std::size_t k = 0; k < kCoverageSamples; ++k) {
-            extent = std::max({extent, std::abs(s.x[k]), std::abs(s.y[k])});
-        }
-        // A sample on the outermost edge stays within the tables' range after rounding.
-        extent *= 1.0f + 1e-5f;
-        const float bin = 2.0f * extent / kBoxBins;
-        bins_per_unit = 1.0f / bin;
-        for (std::size_t a = 0; a < 2; ++a) {
-            const auto& coordinate = a == 0 ? s.x : s.y;
-            for (std::size_t k = 0; k <= kBoxBins; ++k) {
-                const float edge = -extent + static_cast<float>(k) * bin;
-                for (std::size_t i = 0; i < kCoverageSamples; ++i) {
-                    // A twentieth of a bin's slack either way: the lookups round the box's
-                    // edges to bin edges in floats, and must not lose a sample to that.
-                    if (coordinate[i] <= edge + 0.05f * bin) {
-                        below[a][k] |= CoverageMask{1} << i;
-                    }
-                    if (coordinate[i] >= edge - 0.05f * bin) {
-                        above[a][k] |= CoverageMask{1} << i;
-                    }
+BoxMasks::BoxMasks(const CoverageSamples& s) {
+    for (std::size_t k = 0; k < kCoverageSamples; ++k) {
+        m_extent = std::max({m_extent, std::abs(s.x[k]), std::abs(s.y[k])});
+    }
+    // A sample on the outermost edge stays within the tables' range after rounding.
+    m_extent *= 1.0f + 1e-5f;
+    const float bin = 2.0f * m_extent / kBoxBins;
+    m_bins_per_unit = 1.0f / bin;
+    for (std::size_t a = 0; a < 2; ++a) {
+        const auto& coordinate = a == 0 ? s.x : s.y;
+        for (std::size_t k = 0; k <= kBoxBins; ++k) {
+            const float edge = -m_extent + static_cast<float>(k) * bin;
+            for (std::size_t i = 0; i < kCoverageSamples; ++i) {
+                // A twentieth of a bin's slack either way: the lookups round the box's edges
+                // to bin edges in floats, and must not lose a sample to that.
+                if (coordinate[i] <= edge + 0.05f * bin) {
+                    m_below[a][k] |= CoverageMask{1} << i;
+                }
+                if (coordinate[i] >= edge - 0.05f * bin) {
+                    m_above[a][k] |= CoverageMask{1} << i;
                 }
             }
         }
     }
+}
 
-    /// The bin edge at or below a coordinate (an index of `above`), and one at or above it (of
-    /// `below`): the clamped bin coordinate truncated to an int, one instruction each way, where
-    /// floor, ceil and conversions to size_t are calls or branches on baseline x86-64.
-    int index_below(float c) const {
-        return static_cast<int>(
-            std::min(std::max((c + extent) * bins_per_unit, 0.0f), static_cast<float>(kBoxBins)));
-    }
-    int index_above(float c) const {
-        const int k = static_cast<int>(std::min(std::max((c + extent) * bins_per_unit, 0.0f),
-                                                static_cast<float>(kBoxBins - 1)));
-        return k + 1;
-    }
-
-    CoverageMask of(float x0, float x1, float y0, float y1) const {
-        // Not a number anywhere, an empty box or one beyond the samples: nothing (the exact
-        // masks give nothing for the first).
-        if (!(x0 <= x1) || !(y0 <= y1) || x1 < -extent || x0 > extent || y1 < -extent ||
-            y0 > extent) {
-            return 0;
-        }
-        const auto at = [](const std::array<CoverageMask, kBoxBins + 1>& table, int k) {
-            return table[static_cast<std::size_t>(k)];
-        };
-        return at(above[0], index_below(x0)) & at(below[0], index_above(x1)) &
-               at(above[1], index_below(y0)) & at(below[1], index_above(y1));
-    }
-};
-
-const BoxTables& box_tables(SamplePattern pattern) {
-    static const std::array<BoxTables, 2> tables{
-        BoxTables(coverage_samples(SamplePattern::Gaussian)),
-        BoxTables(coverage_samples(SamplePattern::LightDisc))};
+const BoxMasks& box_masks(SamplePattern pattern) {
+    static const std::array<BoxMasks, 2> tables{
+        BoxMasks(coverage_samples(SamplePattern::Gaussian)),
+        BoxMasks(coverage_samples(SamplePattern::LightDisc))};
     return tables[static_cast<std::size_t>(pattern)];
 }
 
-}  // namespace
-
 CoverageMask box_mask(float x0, float x1, float y0, float y1, SamplePattern pattern) {
-    return box_tables(pattern).of(x0, x1, y0, y1);
+    return box_masks(pattern).of(x0, x1, y0, y1);
 }
 
 CoverageMask close_holes(CoverageMask mask, SamplePattern pattern) {

@@ -20,8 +20,10 @@
 
 #include "common/math/math.h"
 
+#include <algorithm>
 #include <array>
 #include <bit>
+#include <cstddef>
 #include <cstdint>
 #include <utility>
 
@@ -83,13 +85,56 @@ CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c,
 /// positive definite (a surfel's disc as the footprint sees it); nothing where it is not finite.
 CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form,
                           SamplePattern pattern = SamplePattern::Gaussian);
-/// A superset of the samples in the box [x0, x1] × [y0, y1]: those within one bin of it, the
+inline constexpr int kBoxBins = 64;
+
+/// A superset of the samples in a box [x0, x1] × [y0, y1]: those within one bin of it, the
 /// samples' extent cut into kBoxBins per axis, from tables of the samples at or beyond each
-/// bin's edge (four loads and three ANDs). Cheap enough to ask before making a triangle's exact
-/// mask whether it could add anything to the samples a fragment already holds.
+/// bin's edge (four loads and three ANDs). Cheap enough to ask before making a point's or a
+/// triangle's exact mask whether it could add anything to the samples a fragment already
+/// holds; asked for every point a masked cone weighs, so `of` is inline and free of branches
+/// but for the one that rejects empty and distant boxes.
+class BoxMasks {
+  public:
+    explicit BoxMasks(const CoverageSamples& samples);
+
+    CoverageMask of(float x0, float x1, float y0, float y1) const {
+        // Not a number anywhere, an empty box or one beyond the samples: nothing (the exact
+        // masks give nothing for the first).
+        if (!(x0 <= x1) || !(y0 <= y1) || x1 < -m_extent || x0 > m_extent || y1 < -m_extent ||
+            y0 > m_extent) {
+            return 0;
+        }
+        // The four edges' bin coordinates, clamped to [0, kBoxBins] (a box may reach far beyond
+        // the samples, where converting would overflow) and truncated, which is the floor of a
+        // non-negative number: the edge at or below each; of one at or above it, one more
+        // (at most kBoxBins). As one vector, where scalar clamps compile to branches.
+        const Eigen::Array4f bins = ((Eigen::Array4f(x0, x1, y0, y1) + m_extent) * m_bins_per_unit)
+                                        .max(0.0f)
+                                        .min(static_cast<float>(kBoxBins));
+        const Eigen::Array4i edge = bins.cast<int>();
+        const Eigen::Array4i above_edge = edge.min(kBoxBins - 1) + 1;
+        const auto at = [](const std::array<CoverageMask, kBoxBins + 1>& table, int k) {
+            return table[static_cast<std::size_t>(k)];
+        };
+        return at(m_above[0], edge[0]) & at(m_below[0], above_edge[1]) & at(m_above[1], edge[2]) &
+               at(m_below[1], above_edge[3]);
+    }
+
+  private:
+    float m_extent = 0.0f;  ///< The samples' largest coordinate (a hair more).
+    float m_bins_per_unit = 0.0f;
+    /// m_below[a][k]: the samples whose coordinate a is at most edge k; m_above[a][k] those at
+    /// least edge k; edges spaced a bin apart from −m_extent to +m_extent.
+    std::array<std::array<CoverageMask, kBoxBins + 1>, 2> m_below{};
+    std::array<std::array<CoverageMask, kBoxBins + 1>, 2> m_above{};
+};
+
+/// The tables of a pattern's samples, built once.
+const BoxMasks& box_masks(SamplePattern pattern);
+
+/// box_masks(pattern).of(x0, x1, y0, y1).
 CoverageMask box_mask(float x0, float x1, float y0, float y1,
                       SamplePattern pattern = SamplePattern::Gaussian);
-inline constexpr int kBoxBins = 64;
 
 /// ellipse_mask one sample at a time: the reference its SIMD kernel answers as, bit for bit
 /// (trace/cone/coverage_mask_simd.h).
