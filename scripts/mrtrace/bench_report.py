@@ -189,6 +189,18 @@ def main():
             "median_microseconds_per_cone": cone[scene].get("median_microseconds_per_cone"),
             "paper_ratio": 4.0,
         } for scene in sorted(cone) if scene in cone_whitted]
+    alpha = {r["scene"]: r for r in renders(work, "cone_alpha")}
+    if alpha:
+        # The budget for coverage masks: at most 1.3x the alpha A-buffer's time.
+        report["cone_masks_over_alpha"] = [{
+            "scene": scene, "width": cone[scene]["width"], "height": cone[scene]["height"],
+            "runs": cone[scene]["runs"],
+            "median_render_seconds_mask": cone[scene]["median_render_seconds"],
+            "median_render_seconds_alpha": alpha[scene]["median_render_seconds"],
+            "ratio": cone[scene]["median_render_seconds"] / alpha[scene]["median_render_seconds"],
+            "ratio_of_minima": cone[scene]["min_render_seconds"]
+            / alpha[scene]["min_render_seconds"],
+        } for scene in sorted(alpha) if scene in cone]
     if glob.glob(os.path.join(work, "preprocess-*.json")):
         report["preprocessing"] = preprocessing(work)
         report["paper_preprocessing"] = PAPER_PREPROCESSING
