@@ -64,9 +64,15 @@ struct ConeTraversalOptions {
     bool blend_levels = true;
     /// Mask: each triangle and point is inserted with the samples of the cone's cross-section it
     /// covers (trace/cone/coverage_mask.h), for a buffer compositing by masks (better than the
-    /// paper's on every comparison scene at at most 1.3× its cost: docs/cone-tracer.md,
-    /// "Coverage masks"). Alpha: the paper's A-buffer.
+    /// paper's on every comparison scene, at 1.08–1.2× its cost with mask_every_cone off:
+    /// docs/cone-tracer.md, "Coverage masks" and "Where masks pay"). Alpha: the paper's
+    /// A-buffer.
     Compositing compositing = Compositing::Mask;
+    /// With masks, also the secondary cones that composite by alpha otherwise: a cone whose
+    /// spread had to be bounded, and one inside a solid after the cone tree's first
+    /// interaction (ConeTracer::secondary_compositing). False: alpha for those, where masks
+    /// cost most and changed the images least (docs/cone-tracer.md, "Where masks pay").
+    bool mask_every_cone = false;
     /// Weigh triangles with the node's one footprint (§5.2's faster version) instead of each
     /// vertex's own. Measured on the default scene it leaves seams of a few per cent of alpha
     /// where a surface's triangles are kept in different nodes, so the exact version is the

@@ -20,6 +20,7 @@ constexpr std::array kMethodOnlyOptions = {
     MethodOnlyOption{"keep-back-faces", {Cone, ConeClassic}},
     MethodOnlyOption{"triangle-weight", {Cone, ConeClassic}},
     MethodOnlyOption{"abuffer", {Cone, ConeClassic}},
+    MethodOnlyOption{"mask-every-cone", {Cone, ConeClassic}},
     MethodOnlyOption{"refine", {Cone, ConeClassic}},
     MethodOnlyOption{"refine-levels", {Cone, ConeClassic}},
     MethodOnlyOption{"highlight-detail", {Cone}},

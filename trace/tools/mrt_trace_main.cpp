@@ -66,6 +66,7 @@ struct Arguments {
     float refine = 0.7f;
     int refine_levels = 2;
     bool mean_highlights = false;
+    bool mask_every_cone = false;
     bool no_level_blend = false;
     bool node_frames = false;
     bool keep_back_faces = false;
@@ -191,6 +192,7 @@ mrt::ConeOptions cone_options(const Arguments& args) {
     // CLI11 checked the name against the same table.
     cone.traversal.triangle_weight = *mrt::kTriangleWeightNames.find(args.triangle_weight);
     cone.traversal.compositing = *mrt::kCompositingNames.find(args.abuffer);
+    cone.traversal.mask_every_cone = args.mask_every_cone;
     cone.traversal.max_anisotropy = args.max_anisotropy;
     cone.traversal.highlight_level_scale = args.highlight_detail;
     cone.traversal.highlight_mixture = !args.mean_highlights;
@@ -486,6 +488,10 @@ int main(int argc, char** argv) {
                    "each fragment's alpha is its weight sum, 4.4)")
         ->check(CLI::IsMember(mrt::kCompositingNames.names()))
         ->default_val("mask");
+    app.add_flag("--mask-every-cone", args.mask_every_cone,
+                 "cone methods, --abuffer mask: masks also for the secondary cones composited by "
+                 "alpha otherwise (inside solids after the first interaction, and those whose "
+                 "spread was bounded)");
     mrt::add_budget_option(app, args.budgets);
 
     return mrt::run_tool(
