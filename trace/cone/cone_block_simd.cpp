@@ -280,6 +280,7 @@ std::uint32_t weigh_points_simd(const ConeVoxelBlock& block, std::uint32_t candi
     const auto near_squared = hn::Set(d, in.near * in.near);
     const auto solid_outward = hn::Set(d, in.entered != nullptr ? in.entered->outward : 0.0f);
     const auto entering = hn::Set(d, -in.entering_cosine);
+    const auto leaving_side = hn::Set(d, in.leaving_side);
     const auto one = hn::Set(d, 1.0f);
     const auto two = hn::Set(d, 2.0f);
     const auto three = hn::Set(d, 3.0f);
@@ -341,7 +342,10 @@ std::uint32_t weigh_points_simd(const ConeVoxelBlock& block, std::uint32_t candi
         const auto near_plane =
             hn::Or(hn::Le(distance, coplanar),
                    hn::And(hn::Le(distance, start), hn::Le(squared, near_squared)));
-        const auto leaves = in.leaving ? hn::AndNot(enters, near_plane) : none;
+        // A point facing the cone from beyond its start (PointLanesInput::leaving_side).
+        const auto beyond =
+            in.leaving_side != 0.0f ? hn::Lt(leaving_side * along, hn::Zero(d)) : none;
+        const auto leaves = in.leaving ? hn::AndNot(hn::Or(enters, beyond), near_plane) : none;
         const auto g0 = m00 * ou + m01 * ov;
         const auto g1 = m10 * ou + m11 * ov;
         const auto q = g0 * g0 + g1 * g1;

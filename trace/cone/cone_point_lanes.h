@@ -55,6 +55,9 @@ struct PointLanesInput {
     /// `entering_cosine`: a point it enters through is never the surface it leaves.
     const ClosedSurface* entered = nullptr;
     float entering_cosine = 0.0f;
+    /// The sign of d·n where the cone starts (ConeTraversal::trace): a point whose n·d has the
+    /// other sign faces the cone from beyond its start and is never the surface it leaves.
+    float leaving_side = 0.0f;
 };
 
 /// The per-point results, lane k for the cluster's point k (meaningful where its hit bit is set).
@@ -113,7 +116,8 @@ inline std::uint32_t weigh_points_scalar(const ConeVoxelBlock& block, std::uint3
         }
         const bool enters =
             in.entered != nullptr && in.entered->entered_through(along, length, in.entering_cosine);
-        if (in.leaving && !enters &&
+        const bool beyond = in.leaving_side * along < 0.0f;
+        if (in.leaving && !enters && !beyond &&
             is_surface_left(std::abs(plane), t * t + offset.squaredNorm(), in.coplanar, in.start,
                             in.near)) {
             continue;

@@ -192,14 +192,15 @@ class ConeTracer {
     /// its A-buffer, the render's where not given.
     Rgb radiance(const ConeRay& ray, float t_min, int depth, float weight, Kind kind,
                  ConeWork& work, std::uint32_t leaving = kAnySurface,
-                 std::optional<Compositing> compositing = std::nullopt) const {
+                 std::optional<Compositing> compositing = std::nullopt,
+                 float leaving_side = 0.0f) const {
         ABuffer<ConeSurface> buffer;
         buffer.set_compositing(compositing.value_or(m_compositing));
         const auto start = Clock::now();
         ConeTraversalStats& stats =
             kind == Kind::Primary ? work.stats.primary : work.stats.secondary;
         m_traversal.trace(ray, t_min, std::numeric_limits<float>::infinity(), buffer, stats,
-                          leaving, kind == Kind::Primary || ray.cone.blurred);
+                          leaving, kind == Kind::Primary || ray.cone.blurred, leaving_side);
         stats.abuffer += buffer.stats();
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         (kind == Kind::Primary ? work.stats.primary_seconds : work.stats.secondary_seconds) +=
@@ -476,8 +477,12 @@ class ConeTracer {
         }
         const float t_min =
             start_clearance(ray.cone.start_dev, direction.dot(hit.normal), hit.half_interval);
+        // Which side of where it starts the cone leaves on, against the fragment's own normal
+        // (outward on a closed surface): hit.normal faces the incoming cone.
+        const float outward_along = (hit.entering ? 1.0f : -1.0f) * direction.dot(hit.normal);
+        const float leaving_side = outward_along > 0.0f ? 1.0f : -1.0f;
         return radiance(ray, t_min, depth + 1, weight, Kind::Secondary, work, hit.surface,
-                        secondary_compositing(depth + 1, inside, spread_bounded));
+                        secondary_compositing(depth + 1, inside, spread_bounded), leaving_side);
     }
 
     /// What the shadow cone from the fragment `hit` to the light lets through (and the cone,

@@ -212,7 +212,7 @@ class Walk {
   public:
     Walk(const ConeGeometry& geometry, const ConeTraversalOptions& options,
          const std::atomic<bool>* stop, Buffer& buffer, ConeTraversalStats& stats, float t_min,
-         float t_max, std::uint32_t leaving, const HighlightLights* highlights,
+         float t_max, std::uint32_t leaving, float leaving_side, const HighlightLights* highlights,
          const ConeRay& world_ray, float highlight_level_scale)
         : m_geometry(geometry),
           m_view(geometry.view()),
@@ -224,6 +224,7 @@ class Walk {
           m_t_min(t_min),
           m_t_max(t_max),
           m_leaving(leaving),
+          m_leaving_side(leaving_side),
           m_highlights(highlights),
           m_world_origin(world_ray.origin),
           m_world_direction(world_ray.direction),
@@ -431,6 +432,20 @@ class Walk {
         return entry.frame;
     }
 
+    /// Whether a primitive of the surface left with normal n (object space, any length; its
+    /// n·d given) faces the cone from the other side than where the cone starts
+    /// (ConeTraversal::trace's leaving_side): not where the cone starts, however near.
+    bool faces_start_from_beyond(float normal_dot_direction) const {
+        return m_leaving_side * normal_dot_direction < 0.0f;
+    }
+
+    /// Whether some point of a cluster may face the cone from beyond its start
+    /// (faces_start_from_beyond): its members' normals lie within `spread` of the mean's.
+    bool may_face_start_from_beyond(const ConeClusterPlane& plane, const Vec3f& direction) const {
+        const float along = Vec3f(plane.normal[0], plane.normal[1], plane.normal[2]).dot(direction);
+        return m_leaving_side != 0.0f && !(m_leaving_side * along > plane.spread);
+    }
+
     /// Whether a shadow cone goes into the solid bounded by `closed` (nullptr: an open surface)
     /// through a primitive with normal `normal` (its winding's, or a point's, which is outward
     /// for a closed object's points): clearly against the outward normal. The surface a shadow
@@ -568,6 +583,7 @@ class Walk {
         in.near = kPointSize * h + kNearApex * space.start;
         in.entered = kShade ? nullptr : solid;
         in.entering_cosine = kEnteringCosine;
+        in.leaving_side = m_leaving_side;
         PointLanes& lanes = m_lanes;
         const ConeNodeClusters& clusters = m_geometry.clusters(index);
         const std::uint32_t end = clusters.first_point_cluster + clusters.point_cluster_count;
@@ -588,6 +604,8 @@ class Walk {
                     continue;
                 }
                 if (skips_leaving &&
+                    !may_face_start_from_beyond(m_geometry.point_cluster_plane(c),
+                                                space.ray.direction) &&
                     cluster_leaves(m_geometry.point_cluster_plane(c), to_vec(cluster.centre),
                                    cluster.radius, space.ray.origin, leaving, leaving_start,
                                    leaving_near)) {
@@ -954,8 +972,10 @@ class Walk {
                 // A cone entering a solid through the triangle has not left it: only the
                 // exactly coplanar test applies (a cone from a floor towards a light shut in a
                 // sphere standing on it meets the sphere's bottom within its start radius).
-                const bool entering = enters_solid(
-                    space, m_geometry.closed_surfaces().of_triangle(triangle), normal / length);
+                const bool entering =
+                    enters_solid(space, m_geometry.closed_surfaces().of_triangle(triangle),
+                                 normal / length) ||
+                    faces_start_from_beyond(normal.dot(space.ray.direction));
                 if (length > 0.0f && leaves(space, p[0], normal / length,
                                             kCoplanarTolerance * scale, 2.0f * size, !entering)) {
                     return;
@@ -1141,6 +1161,7 @@ class Walk {
     float m_t_max;
     /// The surface the cone leaves (ConeTraversal::trace), kAnySurface where not known.
     std::uint32_t m_leaving;
+    float m_leaving_side;  ///< ConeTraversal::trace's leaving_side.
     /// The scene's lights where a shading cone mixes highlights; null otherwise (shadow cones,
     /// ConeTraversalOptions::highlight_mixture off).
     const HighlightLights* m_highlights;
@@ -1381,8 +1402,8 @@ ConeTraversal::ConeTraversal(const ConeGeometry& geometry, const ConeTraversalOp
 
 template <class Buffer>
 void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
-                             ConeTraversalStats& stats, std::uint32_t leaving,
-                             bool finer_glints) const {
+                             ConeTraversalStats& stats, std::uint32_t leaving, bool finer_glints,
+                             float leaving_side) const {
     ++stats.rays;
     ConeSpace world;
     world.ray = ray;
@@ -1394,20 +1415,21 @@ void ConeTraversal::traverse(const ConeRay& ray, float t_min, float t_max, Buffe
             ? &m_geometry.highlight_lights()
             : nullptr;
     Walk<Buffer> walk(m_geometry, m_options, m_stop, buffer, stats, t_min, t_max, leaving,
-                      highlights, ray, finer_glints ? m_options.highlight_level_scale : 1.0f);
+                      leaving_side, highlights, ray,
+                      finer_glints ? m_options.highlight_level_scale : 1.0f);
     walk.object(world, m_geometry.view().world_object, 1.0f, SampleRange{});
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
                           ABuffer<ConeSurface>& buffer, ConeTraversalStats& stats,
-                          std::uint32_t leaving, bool finer_glints) const {
-    traverse(ray, t_min, t_max, buffer, stats, leaving, finer_glints);
+                          std::uint32_t leaving, bool finer_glints, float leaving_side) const {
+    traverse(ray, t_min, t_max, buffer, stats, leaving, finer_glints, leaving_side);
 }
 
 void ConeTraversal::trace(const ConeRay& ray, float t_min, float t_max,
                           ABuffer<ConeOpacity>& buffer, ConeTraversalStats& stats,
                           std::uint32_t leaving) const {
-    traverse(ray, t_min, t_max, buffer, stats, leaving, false);
+    traverse(ray, t_min, t_max, buffer, stats, leaving, false, 0.0f);
 }
 
 }  // namespace mrt

@@ -283,9 +283,14 @@ class ConeTraversal {
     /// `finer_glints`: the cone uses glinting nodes' points a level finer
     /// (ConeTraversalOptions::highlight_level_scale; the cone tracer's primary cones and
     /// blurred ones).
+    /// `leaving_side`: the sign of d·n of the cone's direction d and the outward normal n of
+    /// where it starts (0: not known). A primitive of the surface left whose normal makes the
+    /// other sign with d faces the cone from the far side (a solid's far side seen from inside
+    /// it): it is not where the cone starts, however near, and only the exactly coplanar test
+    /// applies to it.
     void trace(const ConeRay& ray, float t_min, float t_max, ABuffer<ConeSurface>& buffer,
                ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface,
-               bool finer_glints = false) const;
+               bool finer_glints = false, float leaving_side = 0.0f) const;
     /// The same for a shadow cone: only the fragments' weights.
     void trace(const ConeRay& ray, float t_min, float t_max, ABuffer<ConeOpacity>& buffer,
                ConeTraversalStats& stats, std::uint32_t leaving = kAnySurface) const;
@@ -296,7 +301,8 @@ class ConeTraversal {
   private:
     template <class Buffer>
     void traverse(const ConeRay& ray, float t_min, float t_max, Buffer& buffer,
-                  ConeTraversalStats& stats, std::uint32_t leaving, bool finer_glints) const;
+                  ConeTraversalStats& stats, std::uint32_t leaving, bool finer_glints,
+                  float leaving_side) const;
 
     const ConeGeometry& m_geometry;
     ConeTraversalOptions m_options;

@@ -91,6 +91,8 @@ Case random_case(std::mt19937_64& rng) {
     in.near = 2.0f * c.h + 10.0f * in.start;
     in.entered = positive(rng) < 0.5f ? either() : nullptr;
     in.entering_cosine = 0.1f;
+    const float side = positive(rng);
+    in.leaving_side = side < 0.3f ? 0.0f : side < 0.65f ? 1.0f : -1.0f;
     return c;
 }
 
@@ -181,7 +183,10 @@ Independent independent(const Case& c, std::size_t k) {
     const double along = normal.cast<double>().dot(c.ray.direction.cast<double>());
     const bool enters =
         in.entered != nullptr && decided(-in.entering_cosine, in.entered->outward * along, 1.0);
-    if (in.leaving && !enters) {
+    // Facing the cone from beyond its start: n·d of the other sign than leaving_side.
+    const bool beyond =
+        in.leaving_side != 0.0f && decided(0.0, static_cast<double>(in.leaving_side) * along, 1.0);
+    if (in.leaving && !enters && !beyond) {
         const double distance = std::abs(plane);
         if (!decided(distance, in.coplanar, scale) ||
             (!decided(distance, in.start, scale) &&

@@ -1645,6 +1645,64 @@ TEST(ConeRender, ConeLeavingASurfaceMeetsTheFloorItTouches) {
     EXPECT_LE(mask.wrong, 2);
 }
 
+/// A cone inside a closed solid thinner than the cone starts wide (a refracted cone off a
+/// small glass solid: the field's bunnies' ears): everything it looks along is the solid, so the
+/// solid must cover it. Near its apex a cone skips the surface it leaves where that surface's
+/// plane passes within its start; without the side it leaves on, that took the solid's far
+/// face, a tenth away, for the face the cone starts on, and the cone saw through it.
+TEST(ConeTraversal, ConeInsideASolidMeetsItsFarSideHoweverWideItStarts) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    // A closed slab 2 × 2 × 0.1, wound outward.
+    std::ofstream(scratch.path() / "slab.obj")
+        << "v -1 -1 -0.05\nv 1 -1 -0.05\nv 1 1 -0.05\nv -1 1 -0.05\n"
+           "v -1 -1 0.05\nv 1 -1 0.05\nv 1 1 0.05\nv -1 1 0.05\n"
+           "f 1 4 3\nf 1 3 2\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n"
+           "f 4 8 7\nf 4 7 3\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
+    const json scene_json = {
+        {"camera", camera_json(vec(0, 0, 6), vec(0, 0, 0), 30, 16, 16)},
+        {"materials", {{"grey", {{"diffuse", 0.5}}}}},
+        {"objects", {{{"shape", "mesh"}, {"file", "slab.obj"}, {"material", "grey"}}}}};
+    const ConeScene scene(scratch.path(), scene_json, "inside.json");
+    const HierarchyView& view = scene.geometry().view();
+    std::uint32_t sphere = kAnySurface;
+    for (std::uint32_t o = 0; o < view.objects.size(); ++o) {
+        if (view.objects[o].kind == HierarchyObjectKind::Mesh) {
+            sphere = o;
+        }
+    }
+    ASSERT_NE(sphere, kAnySurface);
+    for (const bool points : {true, false}) {
+        SCOPED_TRACE(points ? "points" : "triangles");
+        ConeTraversalOptions options;
+        options.points = points;
+        const ConeTraversal traversal(scene.geometry(), options);
+        // From the middle of the slab's top face straight down, starting three times as wide
+        // as the slab is thick: the outward normal there is +z, the cone leaves against it.
+        ConeRay ray;
+        ray.origin = Vec3f(0.0f, 0.0f, 0.05f);
+        ray.direction = Vec3f(0.0f, 0.0f, -1.0f);
+        orthonormal_basis(ray.direction, ray.cone.u, ray.cone.v);
+        ray.cone.start_dev = 0.3f * Mat2f::Identity();
+        ray.cone.incr_dev = 0.01f * Mat2f::Identity();
+        const auto uncovered = [&](float leaving_side) {
+            ABuffer<ConeSurface> buffer;
+            ConeTraversalStats stats;
+            traversal.trace(ray, 0.01f, 100.0f, buffer, stats, sphere, false, leaving_side);
+            return buffer
+                .composite(
+                    [](const ConeSurface&, const Fragment<ConeSurface>&) { return Rgb::Zero(); })
+                .transmittance;
+        };
+        const float with_side = uncovered(-1.0f);
+        const float without_side = uncovered(0.0f);
+        record(points ? "uncovered_points" : "uncovered_triangles", with_side);
+        record(points ? "uncovered_points_without_side" : "uncovered_triangles_without_side",
+               without_side);
+        EXPECT_LT(with_side, 0.05f);
+        EXPECT_LT(with_side, without_side);
+    }
+}
+
 /// A glass ball over a checkerboard. With masks, the secondary cones inside a solid after the
 /// cone tree's first interaction (the ball's internal reflections and what leaves them) and
 /// those whose spread had to be bounded composite by alpha unless every cone is asked to mask
