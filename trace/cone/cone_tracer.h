@@ -66,6 +66,10 @@ struct ConeRenderStats {
     double secondary_seconds = 0.0;
     double shadow_seconds = 0.0;
     std::uint64_t straddled_critical_angle = 0;  ///< Refractions split with total reflection.
+    /// Cones inside a solid that met nothing and were traced again narrow (kInsideRetraceScale).
+    std::uint64_t inside_cones_retraced = 0;
+    /// Cones inside a solid that met it over part of their cross-section and gave it the rest.
+    std::uint64_t inside_cones_renormalised = 0;
     std::uint64_t pixels_done = 0;
     std::uint64_t pixels = 0;
     std::uint64_t refined_pixels = 0;  ///< Traced again as 2 × 2 cones (refine_contrast).
@@ -80,6 +84,8 @@ struct ConeRenderStats {
         Field{"secondary_traversal_thread_seconds", &ConeRenderStats::secondary_seconds},
         Field{"shadow_traversal_thread_seconds", &ConeRenderStats::shadow_seconds},
         Field{"straddled_critical_angle", &ConeRenderStats::straddled_critical_angle},
+        Field{"inside_cones_retraced", &ConeRenderStats::inside_cones_retraced},
+        Field{"inside_cones_renormalised", &ConeRenderStats::inside_cones_renormalised},
         Field{"pixels_done", &ConeRenderStats::pixels_done},
         Field{"pixels", &ConeRenderStats::pixels},
         Field{"refined_pixels", &ConeRenderStats::refined_pixels},

@@ -85,6 +85,8 @@ TEST(ConeStats, RenderSumAddsEachKindAndAnyStopStops) {
     b.secondary_seconds = 0.5;
     b.shadow_seconds = 0.125;
     b.straddled_critical_angle = 7;
+    b.inside_cones_retraced = 5;
+    b.inside_cones_renormalised = 6;
     b.pixels_done = 30;
     b.pixels = 40;
     b.stopped = true;
@@ -97,6 +99,8 @@ TEST(ConeStats, RenderSumAddsEachKindAndAnyStopStops) {
     EXPECT_EQ(a.secondary_seconds, 0.5);
     EXPECT_EQ(a.shadow_seconds, 0.125);
     EXPECT_EQ(a.straddled_critical_angle, 7u);
+    EXPECT_EQ(a.inside_cones_retraced, 5u);
+    EXPECT_EQ(a.inside_cones_renormalised, 6u);
     EXPECT_EQ(a.pixels_done, 33u);
     EXPECT_EQ(a.pixels, 44u);
     EXPECT_TRUE(a.stopped);
@@ -135,7 +139,8 @@ TEST(ConeStats, PrintingShowsEveryCounter) {
     render << ConeRenderStats{};
     for (const char* field : {"primary ConeTraversalStats{", "secondary ConeTraversalStats{",
                               "shadow ConeTraversalStats{", "primary_traversal_thread_seconds",
-                              "straddled_critical_angle", "pixels_done", "stopped false"}) {
+                              "straddled_critical_angle", "inside_cones_retraced",
+                              "inside_cones_renormalised", "pixels_done", "stopped false"}) {
         EXPECT_NE(render.str().find(field), std::string::npos) << field << " in " << render.str();
     }
 }

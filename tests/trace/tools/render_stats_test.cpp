@@ -96,8 +96,9 @@ TEST(RenderStatsJson, WritesTheConeRecordWithItsOldKeysAndTheCountersItKept) {
     EXPECT_EQ(j["std_error"], 0.25);
     const nlohmann::json& cone = j["cone"];
     EXPECT_EQ(keys_of(cone),
-              (Keys{"pixels", "pixels_done", "primary", "primary_traversal_thread_seconds",
-                    "refined_pixels", "secondary", "secondary_traversal_thread_seconds", "shadow",
+              (Keys{"inside_cones_renormalised", "inside_cones_retraced", "pixels", "pixels_done",
+                    "primary", "primary_traversal_thread_seconds", "refined_pixels", "secondary",
+                    "secondary_traversal_thread_seconds", "shadow",
                     "shadow_traversal_thread_seconds", "straddled_critical_angle", "stopped"}));
     const Keys traversal = {
         "abuffer_dropped", "abuffer_forced_merges", "back_faces_culled", "cones",
