@@ -823,13 +823,13 @@ TEST(ABufferInput, IgnoresNonFiniteAndNonPositiveWeightsDepthsAndTolerances) {
 TEST(ABufferMemory, NeverAllocatesToInsertCompositeCopyOrClear) {
     std::vector<ExpectedFragment> expected;
     const std::vector<Hit> hits = layered_hits(20, 10, 0.04f, 5, expected);  // overflows 16
-    ABuffer<Surfel> buffer;
+    ABuffer<Surfel, 16> buffer;
     const long before = g_allocations.load();
     float total = 0.0f;
     for (int ray = 0; ray < 50; ++ray) {
         buffer.clear();
         insert_all(buffer, hits);
-        const ABuffer<Surfel> copy = buffer;
+        const ABuffer<Surfel, 16> copy = buffer;
         total += copy.composite(kShadeColour).transmittance + copy.opaque_depth();
     }
     const long after = g_allocations.load();
