@@ -4,6 +4,7 @@
 #include "common/cli/tool_main.h"
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/hierarchy/hierarchy_summary.h"
+#include "common/scene_io/mesh_view.h"
 #include "common/scene_io/scene_loader.h"
 #include "common/scene_io/scene_record.h"
 #include "common/system/atomic_file.h"
@@ -37,6 +38,7 @@ using mrt::seconds_since;
 struct Arguments {
     std::filesystem::path scene;
     std::filesystem::path output;
+    bool print_scene = false;
     mrt::PointOctreeOptions octree;
     std::string sampling;  ///< As given; sets octree.sampling.
     int threads = 0;
@@ -45,7 +47,16 @@ struct Arguments {
     mrt::Budgets budgets;
 };
 
-int run(const Arguments& args) {
+int run(Arguments args) {
+    if (args.print_scene) {
+        std::cout << mrt::printable_scene(args.scene) << '\n';
+        return 0;
+    }
+    if (args.output.empty()) {
+        // The scene's name in the working directory: `mrt-preprocess bunny.obj` writes
+        // bunny.mrh.
+        args.output = args.scene.stem().string() + ".mrh";
+    }
     mrt::check_output_file(args.output, "hierarchy file");
     mrt::set_activity("loading " + args.scene.string());
     const auto load_start = Clock::now();
@@ -117,8 +128,16 @@ int main(int argc, char** argv) {
         "(Wand & Straßer 2003, §3) and write it to a .mrh file",
         "mrt-preprocess"};
     Arguments args;
-    app.add_option("scene", args.scene, "Scene file (.json)")->required();
-    app.add_option("-o,--output", args.output, "Hierarchy file to write (.mrh)")->required();
+    app.add_option("scene", args.scene,
+                   "Scene file (.json), or a mesh file (.obj, .ply, .off, .stl) in a scene that "
+                   "frames it")
+        ->required();
+    app.add_option("-o,--output", args.output,
+                   "Hierarchy file to write (.mrh; default: the scene's name with .mrh, in the "
+                   "working directory)");
+    app.add_flag("--print-scene", args.print_scene,
+                 "Print the scene JSON the input stands for (a mesh file's framing scene, to "
+                 "save and edit) and exit");
     app.add_option("--grid", args.octree.grid, "Voxels per node side (k of the k³ grid)")
         ->check(CLI::Range(1, 256))
         ->default_val(16);

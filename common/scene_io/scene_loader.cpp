@@ -9,6 +9,7 @@
 #include "common/scene/world_origin.h"
 #include "common/scene_io/data_path.h"
 #include "common/scene_io/hierarchy_scene.h"
+#include "common/scene_io/mesh_view.h"
 #include "common/system/budgets.h"
 #include "common/system/error.h"
 
@@ -922,6 +923,11 @@ Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& opti
     std::error_code error;
     if (std::filesystem::is_directory(file, error)) {
         throw Error(file, "", "is a directory, expected a scene file");
+    }
+    if (is_mesh_file(file)) {
+        // A mesh file alone: the scene that frames it (docs/scene-format.md, "Looking at a
+        // mesh").
+        return parse_scene(mesh_view_scene(file).dump(2), file, options);
     }
     if (starts_like_section_file(file)) {
         Scene scene = scene_from_hierarchy(HierarchyFile::open(file), file, options.budgets);

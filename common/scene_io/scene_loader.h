@@ -22,8 +22,9 @@ struct SceneLoadOptions {
     Budgets budgets;
 };
 
-/// Loads a scene file, or the scene a hierarchy file (.mrh, recognised by its magic) stands for
-/// (common/scene_io/hierarchy_scene.h). Throws mrt::Error on any problem.
+/// Loads a scene file, the scene a hierarchy file (.mrh, recognised by its magic) stands for
+/// (common/scene_io/hierarchy_scene.h), or the scene that frames a mesh file (.obj, .ply, .off,
+/// .stl: common/scene_io/mesh_view.h). Throws mrt::Error on any problem.
 Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& options = {});
 
 /// Parses scene JSON text as if it were the file `file` (paths resolve relative to its

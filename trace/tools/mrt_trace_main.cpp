@@ -3,6 +3,7 @@
 #include "common/cli/tool_main.h"
 #include "common/hierarchy/hierarchy_file.h"
 #include "common/image/image.h"
+#include "common/scene_io/mesh_view.h"
 #include "common/scene_io/scene_loader.h"
 #include "common/system/atomic_file.h"
 #include "common/system/error.h"
@@ -42,6 +43,7 @@ using mrt::seconds_since;
 struct Arguments {
     std::filesystem::path scene;
     std::filesystem::path output;
+    bool print_scene = false;
     mrt::Method method = mrt::Method::Whitted;
     std::optional<int> spp;
     int spp_initial = 2;
@@ -206,16 +208,25 @@ mrt::ConeOptions cone_options(const Arguments& args) {
 }
 
 int run(const Arguments& args) {
+    if (args.print_scene) {
+        std::cout << mrt::printable_scene(args.scene) << '\n';
+        return 0;
+    }
+    if (args.output.empty()) {
+        throw mrt::Error("--output is required (an image to write), unless --print-scene");
+    }
     mrt::check_image_output(args.output);
     if (!args.stats.empty()) {
         mrt::check_output_file(args.stats, "stats file");
     }
     mrt::set_activity("loading " + args.scene.string());
     const auto load_start = Clock::now();
-    if (args.scene.extension() != ".json" && args.scene.extension() != ".mrh") {
+    if (args.scene.extension() != ".json" && args.scene.extension() != ".mrh" &&
+        !mrt::is_mesh_file(args.scene)) {
         throw mrt::Error(args.scene, "",
                          "unsupported scene file type \"" + args.scene.extension().string() +
-                             "\" (expected a .json scene file or a .mrh hierarchy file)");
+                             "\" (expected a .json scene file, a .mrh hierarchy file or a mesh "
+                             "file: .obj, .ply, .off, .stl)");
     }
     mrt::SceneLoadOptions load_options;
     load_options.warn = [&](const std::string& message) {
@@ -368,9 +379,15 @@ int main(int argc, char** argv) {
         "distributed ray tracer or the multi-resolution cone tracer",
         "mrt-trace"};
     Arguments args;
-    app.add_option("scene", args.scene, "Scene file (.json) or hierarchy file (.mrh)")->required();
-    app.add_option("-o,--output", args.output, "Output image (.exr linear, .png/.jpg sRGB)")
+    app.add_option("scene", args.scene,
+                   "Scene file (.json), hierarchy file (.mrh), or a mesh file (.obj, .ply, .off, "
+                   ".stl) to look at in a scene that frames it")
         ->required();
+    app.add_option("-o,--output", args.output,
+                   "Output image (.exr linear, .png/.jpg sRGB); required unless --print-scene");
+    app.add_flag("--print-scene", args.print_scene,
+                 "Print the scene JSON the input stands for (a mesh file's framing scene, to "
+                 "save and edit) and exit");
     app.add_option_function<std::string>(
            "--method", [&](const std::string& name) { args.method = mrt::parse_method(name); },
            "Tracer: whitted (conventional), distributed (adaptive stochastic), cone "

@@ -100,6 +100,48 @@ TEST(MrtTraceCli, RendersAndWritesTheStatsContract) {
     fs::remove_all(dir);
 }
 
+/// `mrt-trace mesh.obj -o out.png` and `mrt-preprocess mesh.obj` work without a scene file;
+/// --print-scene prints the scene they stand for, which saved and loaded renders the same image.
+TEST(MrtTraceCli, LooksAtAMeshFileInOneCommandAndPrintsItsScene) {
+    const fs::path dir = temp_dir();
+    std::ofstream(dir / "solid.obj") << "v 0 0 0\nv 1.2 0 0.1\nv 0.3 0 1\nv 0.5 1.4 0.4\n"
+                                        "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+    const std::string size = " --width 32 --height 24 --threads 2";
+    const fs::path mesh = dir / "solid.obj";
+    const TraceRun looked = run_trace(mesh.string() + " -o " + (dir / "mesh.exr").string() + size);
+    ASSERT_EQ(looked.exit_code, 0) << looked.output;
+
+    const TraceRun printed = run_trace(mesh.string() + " --print-scene");
+    ASSERT_EQ(printed.exit_code, 0) << printed.output;
+    const nlohmann::json scene = nlohmann::json::parse(printed.output);
+    EXPECT_TRUE(scene.contains("camera") && scene.contains("lights") && scene.contains("objects"));
+    EXPECT_EQ(scene["objects"][0]["file"], fs::absolute(mesh).string());
+    std::ofstream(dir / "saved.json") << printed.output;
+    const TraceRun saved =
+        run_trace((dir / "saved.json").string() + " -o " + (dir / "saved.exr").string() + size);
+    ASSERT_EQ(saved.exit_code, 0) << saved.output;
+    const mrt::Image a = mrt::read_image(dir / "mesh.exr");
+    const mrt::Image b = mrt::read_image(dir / "saved.exr");
+    ASSERT_EQ(a.data().size(), b.data().size());
+    EXPECT_TRUE(std::equal(a.data().begin(), a.data().end(), b.data().begin()));
+
+    // Without an image to write and without --print-scene: one line saying so.
+    const TraceRun no_output = run_trace(mesh.string());
+    EXPECT_EQ(no_output.exit_code, 1);
+    EXPECT_EQ(count_lines(no_output.output), 1) << no_output.output;
+    EXPECT_NE(no_output.output.find("--output"), std::string::npos) << no_output.output;
+
+    // mrt-preprocess writes the mesh's name with .mrh in the working directory.
+    const TraceRun preprocessed =
+        run_tool(("cd " + dir.string() + " && " + MRT_PREPROCESS_EXE).c_str(), "solid.obj");
+    ASSERT_EQ(preprocessed.exit_code, 0) << preprocessed.output;
+    ASSERT_TRUE(fs::exists(dir / "solid.mrh"));
+    const TraceRun cone = run_trace((dir / "solid.mrh").string() + " --method cone -o " +
+                                    (dir / "cone.exr").string() + size);
+    EXPECT_EQ(cone.exit_code, 0) << cone.output;
+    fs::remove_all(dir);
+}
+
 TEST(MrtTraceCli, MissingSceneIsOneLineNamingTheFile) {
     const fs::path dir = temp_dir();
     const TraceRun run =
