@@ -292,4 +292,8 @@ MeshLoadResult load_mesh(const fs::path& file, std::uint32_t material) {
     return result;
 }
 
+bool is_mesh_file(const std::filesystem::path& file) {
+    return mesh_io::format_from_extension(file).has_value();
+}
+
 }  // namespace mrt

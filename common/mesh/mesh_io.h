@@ -21,4 +21,7 @@ struct MeshLoadResult {
 /// triangles, NaN/Inf coordinates, out-of-range indices.
 MeshLoadResult load_mesh(const std::filesystem::path& file, std::uint32_t material);
 
+/// Whether load_mesh reads `file`, by its extension (.obj, .ply, .off, .stl, any case).
+bool is_mesh_file(const std::filesystem::path& file);
+
 }  // namespace mrt

@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <numbers>
@@ -44,13 +43,6 @@ std::array<double, 3> normalised(const std::array<double, 3>& v) {
 }
 
 }  // namespace
-
-bool is_mesh_file(const std::filesystem::path& file) {
-    std::string extension = file.extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return extension == ".obj" || extension == ".ply" || extension == ".off" || extension == ".stl";
-}
 
 std::filesystem::path resolve_mesh_file(const std::filesystem::path& file) {
     std::error_code error;

@@ -3,15 +3,13 @@
 // `mrt-trace mesh.obj -o out.png`. The scene is ordinary scene JSON (docs/scene-format.md,
 // "Looking at a mesh"), printed by --print-scene for a user to save and edit.
 
+#include "common/mesh/mesh_io.h"
 #include "common/scene/scene_json.h"
 
 #include <filesystem>
 #include <string>
 
 namespace mrt {
-
-/// Whether `file` names a mesh file by its extension (OBJ, PLY, OFF, STL, any case).
-bool is_mesh_file(const std::filesystem::path& file);
 
 /// The mesh file `file` stands for: `file` itself where it exists, else looked for along the
 /// data search path (resolve_data_file), absolute. Throws mrt::Error naming every place tried.
