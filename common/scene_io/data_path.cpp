@@ -41,21 +41,27 @@ std::vector<std::filesystem::path> data_search_path() {
     return directories;
 }
 
+std::vector<std::filesystem::path> data_file_candidates(
+    const std::string& name, const std::filesystem::path& relative_to_dir) {
+    const std::filesystem::path path(name);
+    if (path.is_absolute()) {
+        return {path};
+    }
+    // An empty directory (a scene file named without one) means the working directory.
+    std::vector<std::filesystem::path> candidates{relative_to_dir / path};
+    for (const auto& directory : data_search_path()) {
+        candidates.push_back(directory / path);
+    }
+    return candidates;
+}
+
 std::optional<std::filesystem::path> resolve_data_file(
     const std::string& name, const std::filesystem::path& relative_to_dir) {
     if (name.empty()) {
         return std::nullopt;
     }
-    const std::filesystem::path path(name);
-    if (path.is_absolute()) {
-        return is_existing_file(path) ? std::optional(absolute_normal(path)) : std::nullopt;
-    }
-    // An empty directory (a scene file named without one) means the working directory.
-    if (const auto local = relative_to_dir / path; is_existing_file(local)) {
-        return absolute_normal(local);
-    }
-    for (const auto& directory : data_search_path()) {
-        if (const auto candidate = directory / path; is_existing_file(candidate)) {
+    for (const auto& candidate : data_file_candidates(name, relative_to_dir)) {
+        if (is_existing_file(candidate)) {
             return absolute_normal(candidate);
         }
     }

@@ -13,8 +13,13 @@ namespace mrt {
 /// The search path in order (existing or not), from the environment.
 std::vector<std::filesystem::path> data_search_path();
 
-/// Resolves `name` (relative or absolute) as described above. Returns nothing when no candidate
-/// exists.
+/// Where `name` is looked for, in order: itself if absolute, else relative to `relative_to_dir`
+/// (empty: the working directory) and then in each directory of the search path.
+std::vector<std::filesystem::path> data_file_candidates(
+    const std::string& name, const std::filesystem::path& relative_to_dir);
+
+/// Resolves `name` (relative or absolute) as described above: the first of its candidates that
+/// exists, absolute. Returns nothing when none does.
 std::optional<std::filesystem::path> resolve_data_file(
     const std::string& name, const std::filesystem::path& relative_to_dir);
 

@@ -761,15 +761,9 @@ class SceneBuilder {
         if (auto path = resolve_data_file(name, m_directory)) {
             return *path;
         }
-        const std::filesystem::path relative(name);
         std::vector<std::string> looked;
-        if (relative.is_absolute()) {
-            looked.push_back(name);
-        } else {
-            looked.push_back((m_directory / relative).string());
-            for (const auto& directory : data_search_path()) {
-                looked.push_back((directory / relative).string());
-            }
+        for (const auto& candidate : data_file_candidates(name, m_directory)) {
+            looked.push_back(candidate.string());
         }
         value.fail(fmt::format("file \"{}\" not found (looked in: {})", name, join(looked, ", ")));
     }
@@ -942,8 +936,13 @@ Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& opti
             [&scene](std::uint32_t group) { return scene.groups[group].name; }, "");
         return scene;
     }
+    return parse_scene(read_scene_text(file), file, options);
+}
+
+std::string read_scene_text(const std::filesystem::path& file) {
     std::ifstream in(file, std::ios::binary);
     if (!in) {
+        std::error_code error;
         throw Error(file, "",
                     std::filesystem::exists(file, error) ? "cannot read the scene file"
                                                          : "scene file not found");
@@ -953,7 +952,7 @@ Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& opti
     if (in.bad()) {
         throw Error(file, "", "cannot read the scene file");
     }
-    return parse_scene(text.str(), file, options);
+    return text.str();
 }
 
 Scene parse_scene(const std::string& json_text, const std::filesystem::path& file,

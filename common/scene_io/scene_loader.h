@@ -27,6 +27,9 @@ struct SceneLoadOptions {
 /// .stl: common/scene_io/mesh_view.h). Throws mrt::Error on any problem.
 Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& options = {});
 
+/// A scene file's text; a missing or unreadable file is an error naming it.
+std::string read_scene_text(const std::filesystem::path& file);
+
 /// Parses scene JSON text as if it were the file `file` (paths resolve relative to its
 /// directory). Used by tests and by tools that embed scenes.
 Scene parse_scene(const std::string& json_text, const std::filesystem::path& file,
