@@ -2,17 +2,34 @@
 
 #include "common/mesh/format_scan.h"
 #include "common/system/enum_names.h"
+#include "common/system/error.h"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <charconv>
+#include <cstring>
+#include <fstream>
+#include <iterator>
 #include <system_error>
 
 namespace mrt::mesh_io {
 
 namespace fs = std::filesystem;
+
+std::string read_whole_file(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) {
+        throw Error(file, "", fmt::format("cannot be opened: {}", std::strerror(errno)));
+    }
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) {
+        throw Error(file, "", fmt::format("cannot be read: {}", std::strerror(errno)));
+    }
+    return bytes;
+}
 
 std::optional<Format> format_from_extension(const fs::path& file) {
     std::string ext = file.extension().string();

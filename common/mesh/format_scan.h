@@ -7,6 +7,7 @@
 // scan reports.
 
 #include "common/math/math.h"
+#include "common/mesh/mesh_io.h"
 
 #include <cmath>
 #include <cstdint>
@@ -23,6 +24,9 @@ namespace mrt::mesh_io {
 enum class Format { obj, ply, off, stl };
 
 inline constexpr std::string_view kSupportedExtensions = ".obj, .ply, .off, .stl";
+
+/// The whole file as bytes; throws mrt::Error naming it when it cannot be opened or read.
+std::string read_whole_file(const std::filesystem::path& file);
 
 /// The format a file's extension names (case-insensitive), or none.
 std::optional<Format> format_from_extension(const std::filesystem::path& file);
@@ -141,6 +145,10 @@ struct ObjCorner {
 
 struct ObjScan {
     std::size_t vertex_count = 0;
+    std::vector<MeshFileName> libraries;      ///< `mtllib` files in order, as written.
+    std::vector<MeshFileName> material_uses;  ///< Distinct `usemtl` names, in order of first use.
+    /// Per face (empty when the file has no `usemtl`): index into material_uses or kNoMaterialUse.
+    std::vector<std::uint32_t> face_materials;
     std::vector<Vec2f> texcoords;
     std::vector<Vec3f> normals;  ///< Non-finite entries stay non-finite and are recomputed.
     std::vector<ObjCorner> corners;

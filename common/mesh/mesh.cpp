@@ -1,5 +1,7 @@
 #include "common/mesh/mesh.h"
 
+#include "common/math/position_weld.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -102,6 +104,128 @@ void compute_vertex_normals(Mesh& mesh) {
             mesh.normals[v] = widest_normal[v].cast<float>();
         } else {
             mesh.normals[v] = Vec3f(0.0f, 0.0f, 1.0f);
+        }
+    }
+}
+
+void compute_creased_normals(Mesh& mesh, double crease_angle, const std::vector<bool>& given) {
+    const std::size_t vertex_count = mesh.positions.size();
+    std::vector<std::uint32_t> representative;
+    const std::vector<std::uint32_t> welded = weld_positions(
+        vertex_count, [&](std::size_t v) { return mesh.positions[v]; }, representative);
+    const std::size_t triangle_count = mesh.triangles.size();
+
+    // Each face's unit normal (zero for one without usable area) and each corner's angle.
+    std::vector<Vec3d> face_normal(triangle_count, Vec3d::Zero());
+    std::vector<std::array<double, 3>> corner_angle(triangle_count, {0.0, 0.0, 0.0});
+    for (std::size_t t = 0; t < triangle_count; ++t) {
+        const auto& tri = mesh.triangles[t];
+        if (!indices_valid(tri, vertex_count)) {
+            continue;
+        }
+        const std::optional<Vec3d> area =
+            area_vector(mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]);
+        if (!area) {
+            continue;
+        }
+        face_normal[t] = area->normalized();
+        for (std::size_t corner = 0; corner < 3; ++corner) {
+            const Vec3d p = to_double(mesh.positions[tri[corner]]);
+            corner_angle[t][corner] =
+                angle_between(to_double(mesh.positions[tri[(corner + 1) % 3]]) - p,
+                              to_double(mesh.positions[tri[(corner + 2) % 3]]) - p);
+        }
+    }
+
+    // The corners at each welded position, in triangle order (compressed rows).
+    std::vector<std::size_t> first(representative.size() + 1, 0);
+    for (const auto& tri : mesh.triangles) {
+        for (const std::uint32_t v : tri) {
+            if (v < vertex_count) {
+                ++first[welded[v] + 1];
+            }
+        }
+    }
+    for (std::size_t w = 0; w < representative.size(); ++w) {
+        first[w + 1] += first[w];
+    }
+    std::vector<std::pair<std::uint32_t, std::uint8_t>> corners(first.back());
+    std::vector<std::size_t> filled(first.begin(), first.end() - 1);
+    for (std::size_t t = 0; t < triangle_count; ++t) {
+        for (std::uint8_t corner = 0; corner < 3; ++corner) {
+            const std::uint32_t v = mesh.triangles[t][corner];
+            if (v < vertex_count) {
+                corners[filled[welded[v]]++] = {static_cast<std::uint32_t>(t), corner};
+            }
+        }
+    }
+
+    // A corner's normal: the angle-weighted mean of the normals of the faces around its position
+    // that meet its own face at no more than the crease angle (summed in triangle order, so a
+    // position without creases gets compute_vertex_normals' bits).
+    const double crease_cosine = std::cos(crease_angle);
+    const auto corner_normal = [&](std::size_t t, std::uint32_t w) {
+        Vec3d sum = Vec3d::Zero();
+        Vec3d widest_normal = face_normal[t];
+        double widest = -1.0;
+        for (std::size_t i = first[w]; i < first[w + 1]; ++i) {
+            const auto [other, corner] = corners[i];
+            // At a crease angle of π every face counts, back-to-back ones too.
+            if (crease_cosine > -1.0 && face_normal[other].dot(face_normal[t]) < crease_cosine) {
+                continue;
+            }
+            const double angle = corner_angle[other][corner];
+            sum += angle * face_normal[other];
+            if (angle > widest) {
+                widest = angle;
+                widest_normal = face_normal[other];
+            }
+        }
+        const double length = sum.norm();
+        if (length > 1e-9 && std::isfinite(length)) {
+            return Vec3f((sum / length).cast<float>());
+        }
+        return widest_normal.squaredNorm() > 0.0 ? Vec3f(widest_normal.cast<float>())
+                                                 : Vec3f(0.0f, 0.0f, 1.0f);
+    };
+
+    // A vertex whose corners get different normals is split, one copy per normal.
+    mesh.normals.assign(vertex_count, Vec3f(0.0f, 0.0f, 1.0f));
+    std::vector<bool> assigned(vertex_count, false);
+    std::vector<std::vector<std::uint32_t>> copies(vertex_count);
+    const auto same = [](const Vec3f& a, const Vec3f& b) {
+        return a.x() == b.x() && a.y() == b.y() && a.z() == b.z();
+    };
+    for (std::size_t t = 0; t < triangle_count; ++t) {
+        for (std::size_t corner = 0; corner < 3; ++corner) {
+            std::uint32_t& v = mesh.triangles[t][corner];
+            if (v >= vertex_count || (v < given.size() && given[v])) {
+                continue;
+            }
+            const Vec3f n = corner_normal(t, welded[v]);
+            if (!assigned[v]) {
+                assigned[v] = true;
+                mesh.normals[v] = n;
+                continue;
+            }
+            if (same(mesh.normals[v], n)) {
+                continue;
+            }
+            const auto copy =
+                std::find_if(copies[v].begin(), copies[v].end(),
+                             [&](std::uint32_t c) { return same(mesh.normals[c], n); });
+            if (copy != copies[v].end()) {
+                v = *copy;
+                continue;
+            }
+            const auto added = static_cast<std::uint32_t>(mesh.positions.size());
+            mesh.positions.push_back(mesh.positions[v]);
+            mesh.normals.push_back(n);
+            if (mesh.has_uvs()) {
+                mesh.uvs.push_back(mesh.uvs[v]);
+            }
+            copies[v].push_back(added);
+            v = added;
         }
     }
 }

@@ -30,6 +30,14 @@ struct Mesh {
 /// (vertices of no non-degenerate face get (0, 0, 1)).
 void compute_vertex_normals(Mesh& mesh);
 
+/// Replaces the normals by angle-weighted averages of the normals of the faces around each
+/// position (vertices at bitwise equal positions count as one: files split vertices at texture
+/// seams and between patches, STL shares none, yet the surface is smooth there), leaving out
+/// faces that meet a corner's own face at more than `crease_angle` (radians): a box keeps flat
+/// walls. A vertex whose corners get different normals is split (position and uv copied).
+/// Vertices v with given[v] keep their normal and are not split.
+void compute_creased_normals(Mesh& mesh, double crease_angle, const std::vector<bool>& given = {});
+
 /// Removes zero-area triangles (and those with repeated or non-finite vertices); returns how
 /// many were removed.
 std::size_t remove_degenerate_triangles(Mesh& mesh);

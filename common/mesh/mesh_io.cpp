@@ -1,6 +1,5 @@
 #include "common/mesh/mesh_io.h"
 
-#include "common/math/position_weld.h"
 #include "common/mesh/format_scan.h"
 #include "common/mesh/openmesh_import.h"
 #include "common/system/error.h"
@@ -40,6 +39,7 @@ using mesh_io::kNoUv;
 using mesh_io::ObjCorner;
 using mesh_io::ObjScan;
 using mesh_io::PolygonSoup;
+using mesh_io::read_whole_file;
 using mesh_io::ScanResult;
 
 // ------------------------------------------------------------------------------------------
@@ -64,8 +64,10 @@ bool usable_normal(const Vec3f& n) {
 /// Turns the soup into an indexed mesh: the first corner to use a file vertex keeps its index,
 /// corners with other (uv, normal) values get one appended vertex per distinct combination.
 /// Returns the number of fan triangles produced.
+/// `face_tags` (one per soup face, or empty) become the triangles' materials, `material` otherwise.
 std::size_t assemble(const PolygonSoup& soup, const std::vector<Corner>& corners, bool has_uvs,
-                     std::uint32_t material, Mesh& mesh, std::vector<Vec3f>& file_normals) {
+                     std::uint32_t material, const std::vector<std::uint32_t>& face_tags,
+                     Mesh& mesh, std::vector<Vec3f>& file_normals) {
     const std::size_t file_vertices = soup.positions.size();
     mesh.positions = soup.positions;
     file_normals = soup.vertex_normals;
@@ -108,9 +110,9 @@ std::size_t assemble(const PolygonSoup& soup, const std::vector<Corner>& corners
         }
         for (std::size_t i = 1; i + 1 < polygon.size(); ++i) {
             mesh.triangles.push_back({polygon[0], polygon[i], polygon[i + 1]});
+            mesh.materials.push_back(face_tags.empty() ? material : face_tags[f]);
         }
     }
-    mesh.materials.assign(mesh.triangles.size(), material);
     if (has_uvs) {
         mesh.uvs.resize(uvs.size());
         for (std::size_t v = 0; v < uvs.size(); ++v) {
@@ -121,46 +123,14 @@ std::size_t assemble(const PolygonSoup& soup, const std::vector<Corner>& corners
     return mesh.triangles.size();
 }
 
-/// Vertex normals computed as if vertices at the same position were one: files split vertices
-/// for texture seams (spot.obj) or between surface patches (teapot.obj), and STL has no sharing
-/// at all, yet the surface is smooth across those splits. Hard edges need normals in the file.
-void compute_welded_normals(Mesh& mesh) {
-    std::vector<std::uint32_t> representative;
-    const std::vector<std::uint32_t> welded_index = weld_positions(
-        mesh.positions.size(), [&](std::size_t v) { return mesh.positions[v]; }, representative);
-    Mesh welded;
-    welded.positions.reserve(representative.size());
-    for (const std::uint32_t v : representative) {
-        welded.positions.push_back(mesh.positions[v] + Vec3f::Zero());
-    }
-    welded.triangles.reserve(mesh.triangles.size());
-    for (const auto& t : mesh.triangles) {
-        welded.triangles.push_back({welded_index[t[0]], welded_index[t[1]], welded_index[t[2]]});
-    }
-    compute_vertex_normals(welded);
-    mesh.normals.resize(mesh.positions.size());
-    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
-        mesh.normals[v] = welded.normals[welded_index[v]];
-    }
-}
-
-std::string read_whole_file(const fs::path& file) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) {
-        throw Error(file, "", fmt::format("cannot be opened: {}", std::strerror(errno)));
-    }
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) {
-        throw Error(file, "", fmt::format("cannot be read: {}", std::strerror(errno)));
-    }
-    return bytes;
-}
-
 /// Gives OpenMesh's OBJ faces their corners' texture coordinates and normals from the scan.
 /// OpenMesh's faces are the scan's faces with at least three distinct vertices, each with its
 /// repeats removed; anything else means the two disagree about the file.
-void apply_obj_corners(const fs::path& file, const ObjScan& obj, const PolygonSoup& soup,
-                       std::vector<Corner>& corners) {
+/// Returns, per soup face, the scan face it is.
+std::vector<std::size_t> apply_obj_corners(const fs::path& file, const ObjScan& obj,
+                                           const PolygonSoup& soup, std::vector<Corner>& corners) {
+    std::vector<std::size_t> scan_faces_of_soup;
+    scan_faces_of_soup.reserve(soup.face_total());
     const std::size_t scan_faces = obj.face_starts.size() - 1;
     const auto distinct = [&obj](std::size_t f) {
         std::vector<std::uint32_t> vertices;
@@ -187,6 +157,7 @@ void apply_obj_corners(const fs::path& file, const ObjScan& obj, const PolygonSo
                 file, "",
                 fmt::format("OpenMesh's reading of face {} disagrees with the file", f + 1));
         }
+        scan_faces_of_soup.push_back(scan_face);
         for (std::size_t i = 0; i < count; ++i) {
             Corner& corner = corners[first + i];
             // The first corner naming this vertex decides its attributes.
@@ -207,11 +178,12 @@ void apply_obj_corners(const fs::path& file, const ObjScan& obj, const PolygonSo
         }
         ++scan_face;
     }
+    return scan_faces_of_soup;
 }
 
 }  // namespace
 
-MeshLoadResult load_mesh(const fs::path& file, std::uint32_t material) {
+MeshLoadResult load_mesh(const fs::path& file, std::uint32_t material, double crease_angle) {
     std::error_code ec;
     const fs::file_status status = fs::status(file, ec);
     if (!fs::exists(status)) {
@@ -240,8 +212,16 @@ MeshLoadResult load_mesh(const fs::path& file, std::uint32_t material) {
     std::vector<Corner> corners = soup.corners;
     bool has_uvs = soup.has_uvs;
     bool has_normals = soup.has_normals;
+    std::vector<std::uint32_t> face_tags;
     if (scan.obj) {
-        apply_obj_corners(file, *scan.obj, soup, corners);
+        const std::vector<std::size_t> scan_faces =
+            apply_obj_corners(file, *scan.obj, soup, corners);
+        if (!scan.obj->face_materials.empty()) {
+            face_tags.reserve(scan_faces.size());
+            for (const std::size_t f : scan_faces) {
+                face_tags.push_back(scan.obj->face_materials[f]);
+            }
+        }
         const auto& obj_corners = scan.obj->corners;
         has_uvs = std::any_of(obj_corners.begin(), obj_corners.end(),
                               [](const ObjCorner& c) { return c.texcoord.has_value(); });
@@ -262,7 +242,8 @@ MeshLoadResult load_mesh(const fs::path& file, std::uint32_t material) {
     Mesh& mesh = result.mesh;
     mesh.name = file.filename().string();
     std::vector<Vec3f> file_normals;
-    const std::size_t produced = assemble(soup, corners, has_uvs, material, mesh, file_normals);
+    const std::size_t produced =
+        assemble(soup, corners, has_uvs, material, face_tags, mesh, file_normals);
     if (produced == 0 && scan.triangles.value_or(0) == 0) {
         throw Error(file, "",
                     mesh.positions.empty()
@@ -280,13 +261,28 @@ MeshLoadResult load_mesh(const fs::path& file, std::uint32_t material) {
                                 result.degenerate_triangles_removed));
     }
 
-    compute_welded_normals(mesh);
+    if (scan.obj) {
+        result.material_libraries = scan.obj->libraries;
+        result.material_uses = scan.obj->material_uses;
+        if (!face_tags.empty()) {
+            // The triangles carried their faces' material uses through the degenerate removal.
+            result.triangle_material_uses = mesh.materials;
+            mesh.materials.assign(mesh.triangles.size(), material);
+        }
+    }
+
+    // The file's normals where it gives them; elsewhere smooth, except across creases.
+    std::vector<bool> given(mesh.positions.size(), false);
     if (has_normals) {
-        for (std::size_t v = 0; v < mesh.normals.size(); ++v) {
-            if (usable_normal(file_normals[v])) {
-                mesh.normals[v] = file_normals[v].normalized();
-                result.normals_from_file = true;
-            }
+        for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+            given[v] = usable_normal(file_normals[v]);
+        }
+    }
+    compute_creased_normals(mesh, crease_angle, given);
+    for (std::size_t v = 0; v < given.size(); ++v) {
+        if (given[v]) {
+            mesh.normals[v] = file_normals[v].normalized();
+            result.normals_from_file = true;
         }
     }
     return result;

@@ -8,9 +8,39 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace mrt::mesh_io {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+/// `mtllib file...` adds libraries; `usemtl name` makes `material_use` the following faces'.
+void read_material_statement(const fs::path& file, std::size_t line,
+                             const std::vector<std::string_view>& tokens, ObjScan& scan,
+                             std::uint32_t& material_use) {
+    if (tokens.size() < 2 || tokens[1].front() == '#') {
+        throw Error(file, fmt::format("line {}", line),
+                    fmt::format("'{}' without a {}", tokens[0],
+                                tokens[0] == "usemtl" ? "material name" : "library file"));
+    }
+    if (tokens[0] == "mtllib") {
+        for (std::size_t i = 1; i < tokens.size() && tokens[i].front() != '#'; ++i) {
+            scan.libraries.push_back({std::string(tokens[i]), line});
+        }
+        return;
+    }
+    const std::string name(tokens[1]);
+    const auto it = std::find_if(scan.material_uses.begin(), scan.material_uses.end(),
+                                 [&](const MeshFileName& use) { return use.name == name; });
+    material_use = static_cast<std::uint32_t>(it - scan.material_uses.begin());
+    if (it == scan.material_uses.end()) {
+        scan.material_uses.push_back({name, line});
+    }
+}
+
+}  // namespace
 
 ObjScan scan_obj(const fs::path& file, std::string_view text) {
     ObjScan scan;
@@ -79,6 +109,7 @@ ObjScan scan_obj(const fs::path& file, std::string_view text) {
     std::size_t seen_vertices = 0;
     std::size_t seen_texcoords = 0;
     std::size_t seen_normals = 0;
+    std::uint32_t material_use = kNoMaterialUse;
     while (face_lines.next(raw)) {
         split_tokens(trim(raw), tokens);
         if (tokens.empty()) {
@@ -90,6 +121,8 @@ ObjScan scan_obj(const fs::path& file, std::string_view text) {
             ++seen_texcoords;
         } else if (tokens[0] == "vn") {
             ++seen_normals;
+        } else if (tokens[0] == "usemtl" || tokens[0] == "mtllib") {
+            read_material_statement(file, face_lines.number(), tokens, scan, material_use);
         }
         if (tokens[0] != "f") {
             continue;
@@ -153,6 +186,11 @@ ObjScan scan_obj(const fs::path& file, std::string_view text) {
                                     corner_count == 1 ? "" : "s"));
         }
         scan.face_starts.push_back(scan.corners.size());
+        if (material_use != kNoMaterialUse || !scan.face_materials.empty()) {
+            // The faces before the first usemtl had none.
+            scan.face_materials.resize(scan.face_starts.size() - 2, kNoMaterialUse);
+            scan.face_materials.push_back(material_use);
+        }
         scan.fan_triangles += corner_count - 2;
     }
     return scan;

@@ -17,6 +17,7 @@
 #include <iostream>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <random>
 #include <set>
@@ -1017,6 +1018,54 @@ INSTANTIATE_TEST_SUITE_P(
         std::replace(name.begin(), name.end(), '-', '_');
         return name;
     });
+
+}  // namespace
+}  // namespace mrt
+
+namespace mrt {
+namespace {
+
+/// A unit cube of 8 shared vertices and 6 quads, without normals: the Cornell box's boxes.
+constexpr std::string_view kCubeObj =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+    "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 1 5 8 4\n";
+
+TEST(MeshIo, CreaseAngleKeepsABoxFlatAndLeavesSmoothSurfacesAlone) {
+    const TempDir dir;
+    const fs::path cube = dir.write("cube.obj", kCubeObj);
+    // Smooth everywhere (the default): each corner's normal is the mean of its three faces'.
+    const Mesh smooth = load_mesh(cube, 0).mesh;
+    EXPECT_EQ(smooth.positions.size(), 8u);
+    for (std::size_t v = 0; v < smooth.positions.size(); ++v) {
+        const Vec3f diagonal = (smooth.positions[v] - Vec3f::Constant(0.5f)).normalized();
+        EXPECT_LT((smooth.normals[v] - diagonal).norm(), 1e-6f) << "vertex " << v;
+    }
+    // At 60° the faces meet at 90°: every corner takes its own face's normal, 3 copies a corner.
+    const Mesh creased = load_mesh(cube, 0, 60.0 * std::numbers::pi / 180.0).mesh;
+    expect_well_formed(creased);
+    EXPECT_EQ(creased.positions.size(), 24u);
+    for (const auto& t : creased.triangles) {
+        const Vec3f face = (creased.positions[t[1]] - creased.positions[t[0]])
+                               .cross(creased.positions[t[2]] - creased.positions[t[0]])
+                               .normalized();
+        for (const std::uint32_t v : t) {
+            EXPECT_LT((creased.normals[v] - face).norm(), 1e-6f);
+        }
+    }
+    // A crease angle wider than the box's edges changes nothing, to the bit.
+    const Mesh wide = load_mesh(cube, 0, 100.0 * std::numbers::pi / 180.0).mesh;
+    ASSERT_EQ(wide.normals.size(), smooth.normals.size());
+    for (std::size_t v = 0; v < wide.normals.size(); ++v) {
+        EXPECT_EQ(wide.normals[v], smooth.normals[v]);
+    }
+    // A scan's curvature is mostly far below 60°: the bunny keeps nearly all its vertices shared.
+    if (const auto bunny = testing::find_data_file("meshes/stanford-bunny.obj")) {
+        const std::size_t shared = load_mesh(*bunny, 0).mesh.positions.size();
+        const std::size_t split =
+            load_mesh(*bunny, 0, 60.0 * std::numbers::pi / 180.0).mesh.positions.size();
+        EXPECT_LT(static_cast<double>(split - shared), 0.02 * static_cast<double>(shared));
+    }
+}
 
 }  // namespace
 }  // namespace mrt
