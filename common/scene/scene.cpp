@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <functional>
 #include <limits>
 #include <ostream>
 #include <string>
@@ -52,34 +53,10 @@ class Flattener {
     }
 
   private:
-    // Depth first with an explicit stack: the loader bounds the nesting, a hand-built Scene need
-    // not, and the order (children in order, each expanded before the next) is the recursive one.
     void add_group(std::uint32_t root) {
-        struct Frame {
-            std::uint32_t group;
-            Affine3f to_world;
-            std::size_t next_child;
-        };
-        std::vector<Frame> stack{{root, Affine3f::Identity(), 0}};
-        while (!stack.empty()) {
-            Frame& frame = stack.back();
-            const std::vector<Instance>& children = m_scene.groups[frame.group].children;
-            if (frame.next_child == children.size()) {
-                stack.pop_back();
-                continue;
-            }
-            const Instance& child = children[frame.next_child++];
-            check_index(m_scene, child);
-            const Affine3f child_to_world = frame.to_world * child.transform;
-            if (child.kind == Instance::Kind::Mesh) {
-                add_mesh(m_scene.meshes[child.index], child_to_world);
-            } else {
-                if (stack.size() > m_scene.groups.size()) {
-                    throw Error(m_scene.file, "", "group instances form a cycle");
-                }
-                stack.push_back({child.index, child_to_world, 0});
-            }
-        }
+        for_each_mesh_instance(m_scene, root, [this](std::uint32_t mesh, const Affine3f& to_world) {
+            add_mesh(m_scene.meshes[mesh], to_world);
+        });
     }
 
     void add_mesh(const Mesh& mesh, const Affine3f& to_world) {
@@ -124,6 +101,37 @@ std::string format_rgb(const Rgb& c) {
 }
 
 }  // namespace
+
+void for_each_mesh_instance(const Scene& scene, std::uint32_t root,
+                            const std::function<void(std::uint32_t, const Affine3f&)>& visit) {
+    // Depth first with an explicit stack: the loader bounds the nesting, a hand-built Scene need
+    // not, and the order (children in order, each expanded before the next) is the recursive one.
+    struct Frame {
+        std::uint32_t group;
+        Affine3f to_world;
+        std::size_t next_child;
+    };
+    std::vector<Frame> stack{{root, Affine3f::Identity(), 0}};
+    while (!stack.empty()) {
+        Frame& frame = stack.back();
+        const std::vector<Instance>& children = scene.groups[frame.group].children;
+        if (frame.next_child == children.size()) {
+            stack.pop_back();
+            continue;
+        }
+        const Instance& child = children[frame.next_child++];
+        check_index(scene, child);
+        const Affine3f child_to_world = frame.to_world * child.transform;
+        if (child.kind == Instance::Kind::Mesh) {
+            visit(child.index, child_to_world);
+        } else {
+            if (stack.size() > scene.groups.size()) {
+                throw Error(scene.file, "", "group instances form a cycle");
+            }
+            stack.push_back({child.index, child_to_world, 0});
+        }
+    }
+}
 
 std::uint64_t Scene::instanced_triangle_count() const {
     if (root >= groups.size()) {

@@ -6,9 +6,11 @@
 
 #include "common/math/math.h"
 #include "common/mesh/mesh.h"
+#include "common/scene/mesh_light.h"
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <iosfwd>
 #include <span>
 #include <string>
@@ -66,10 +68,14 @@ struct Material {
     float transparency = 0.0f;       ///< Fraction of light refracted, in [0, 1 − reflectivity].
     float ior = 1.5f;                ///< Index of refraction of the inside (≥ 1 typical, > 0).
     float roughness = 0.0f;          ///< Blur of reflection/refraction (0 = perfect mirror).
-    int texture = -1;                ///< Index into Scene::textures, or −1.
+    /// Radiance emitted from the front face (an OBJ `Ke`); a mesh face of a material that emits
+    /// is also a light (Scene::mesh_lights).
+    Rgb emission{0.0f, 0.0f, 0.0f};
+    int texture = -1;                              ///< Index into Scene::textures, or −1.
     Affine2f uv_transform = Affine2f::Identity();  ///< Applied to mesh UVs before lookup.
 
     bool reflects() const { return reflectivity > 0.0f; }
+    bool emits() const { return (emission > 0.0f).any(); }
     bool refracts() const { return transparency > 0.0f; }
 };
 
@@ -95,6 +101,9 @@ struct Scene {
     int max_depth = 8;                 ///< Maximum number of reflection/refraction bounces.
     std::vector<PointLight> point_lights;
     std::vector<EllipticalAreaLight> area_lights;
+    /// Lights made of the geometry's emissive faces (common/scene/emissive_lights.h): derived
+    /// by the loaders from the meshes and materials, never written to a file.
+    std::vector<MeshAreaLight> mesh_lights;
     std::vector<Material> materials;
     std::vector<Texture> textures;
     std::vector<Mesh> meshes;   ///< Unique geometry, each in its own object space.
@@ -131,6 +140,12 @@ struct GroupExpansion {
 /// mrt::Error naming scene.file on an out-of-range index or a cycle.
 std::vector<GroupExpansion> expand_groups(const Scene& scene,
                                           std::span<const std::uint64_t> mesh_triangles);
+
+/// Calls visit(mesh index, mesh → world) for every mesh placement below group `root` (the world
+/// for scene.root), children in order, depth first. Throws mrt::Error naming scene.file on an
+/// out-of-range index or a cycle.
+void for_each_mesh_instance(const Scene& scene, std::uint32_t root,
+                            const std::function<void(std::uint32_t, const Affine3f&)>& visit);
 
 /// Every triangle of the scene in world space, one mesh (instances expanded; per-triangle
 /// materials and vertex attributes carried along, normals transformed by the inverse transpose).

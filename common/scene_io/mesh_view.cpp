@@ -30,6 +30,9 @@ constexpr int kGroundTiles = 8;
 const Vec3d kLightDirection = Vec3d(-0.6, 1.0, 0.5).normalized();
 constexpr double kLightDistanceRadii = 4.0;
 constexpr double kLightIrradiance = 3.0;
+/// Faces of a mesh without normals that meet at more than this are not smoothed across, so a box
+/// (the Cornell box) keeps flat walls; a scan's ridges are smoother than that.
+constexpr double kViewCreaseAngleDegrees = 60.0;
 
 Json json_of(const Vec3d& v) {
     return Json::array({v.x(), v.y(), v.z()});
@@ -89,7 +92,10 @@ Json mesh_view_scene(const std::filesystem::path& file) {
                                     {"radiance", light_radiance}}});
     const double ground_size = kGroundRadii * radius;
     scene["objects"] = Json::array(
-        {{{"shape", "mesh"}, {"file", mesh_file.string()}, {"material", "mesh"}},
+        {{{"shape", "mesh"},
+          {"file", mesh_file.string()},
+          {"material", "mesh"},
+          {"crease_angle", kViewCreaseAngleDegrees}},
          {{"shape", "checkerboard"},
           {"size", Json::array({ground_size, ground_size})},
           {"tiles", Json::array({kGroundTiles, kGroundTiles})},

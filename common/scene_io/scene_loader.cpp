@@ -3,13 +3,16 @@
 #include "common/hierarchy/section_file.h"
 #include "common/math/invertibility.h"
 #include "common/mesh/mesh_io.h"
+#include "common/mesh/mtl_library.h"
 #include "common/mesh/procedural.h"
+#include "common/scene/emissive_lights.h"
 #include "common/scene/object_scale.h"
 #include "common/scene/scene_json.h"
 #include "common/scene/world_origin.h"
 #include "common/scene_io/data_path.h"
 #include "common/scene_io/hierarchy_scene.h"
 #include "common/scene_io/mesh_view.h"
+#include "common/scene_io/mtl_materials.h"
 #include "common/system/budgets.h"
 #include "common/system/error.h"
 
@@ -27,6 +30,7 @@
 #include <span>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -52,8 +56,10 @@ constexpr double kMinUpViewSine = 1e-6;
 struct PendingMeshFile {
     std::uint32_t mesh = 0;  ///< Slot in Scene::meshes.
     std::filesystem::path path;
-    std::uint32_t material = 0;
-    std::string pointer;  ///< Of the "file" value, for messages.
+    /// For faces the file gives no material (none: the default material).
+    std::optional<std::uint32_t> material;
+    double crease_angle = kSmoothEverywhere;  ///< Radians.
+    std::string pointer;                      ///< Of the "file" value, for messages.
 };
 
 /// A procedural shape to generate once the whole scene is known to be within its budgets.
@@ -369,6 +375,7 @@ class SceneBuilder {
             "/objects");
         make_procedural_meshes();
         normalize_object_scales(m_scene);
+        m_scene.mesh_lights = emissive_lights(m_scene);
         return std::move(m_scene);
     }
 
@@ -463,8 +470,9 @@ class SceneBuilder {
     }
 
     Material read_material(const std::string& name, const JsonValue& value) {
-        const JsonObject object(value, {"diffuse", "ior", "phong_exponent", "reflectivity",
-                                        "roughness", "specular", "texture", "transparency"});
+        const JsonObject object(
+            value, {"diffuse", "emission", "ior", "phong_exponent", "reflectivity", "roughness",
+                    "specular", "texture", "transparency"});
         Material m;
         m.name = name;
         if (const auto diffuse = object.optional("diffuse")) {
@@ -472,6 +480,9 @@ class SceneBuilder {
         }
         if (const auto specular = object.optional("specular")) {
             m.specular = specular->colour();
+        }
+        if (const auto emission = object.optional("emission")) {
+            m.emission = emission->colour();
         }
         if (const auto exponent = object.optional("phong_exponent")) {
             m.phong_exponent = exponent->number(NumberRange::at_least(0.0));
@@ -509,13 +520,18 @@ class SceneBuilder {
         const bool srgb = srgb_value ? srgb_value->boolean() : true;
         material.uv_transform = read_uv_transform(object);
 
+        material.texture = texture_index(path, srgb);
+    }
+
+    /// Textures are numbered in order of first use, one per (file, srgb).
+    int texture_index(const std::filesystem::path& path, bool srgb) {
         const auto key = std::pair{path.string(), srgb};
         auto it = m_texture_index.find(key);
         if (it == m_texture_index.end()) {
             it = m_texture_index.emplace(key, static_cast<int>(m_scene.textures.size())).first;
             m_scene.textures.push_back(Texture{path, srgb});
         }
-        material.texture = it->second;
+        return it->second;
     }
 
     void read_lights(const JsonValue& value) {
@@ -654,10 +670,18 @@ class SceneBuilder {
 
     std::uint32_t read_shape(const std::string& shape, const JsonValue& value) {
         if (shape == "mesh") {
-            const JsonObject object(value, {"file", "material", "shape", "transform"});
+            const JsonObject object(value,
+                                    {"crease_angle", "file", "material", "shape", "transform"});
             const JsonValue file = object.required("file");
-            const std::uint32_t material = material_reference(object.required("material"));
-            return add_mesh_file(file, resolve(file), material);
+            const auto crease_value = object.optional("crease_angle");
+            const double crease_angle =
+                crease_value
+                    ? crease_value->number(NumberRange::closed(0.0, 180.0)) * kRadiansPerDegree
+                    : kSmoothEverywhere;
+            const auto material_value = object.optional("material");
+            const std::optional<std::uint32_t> material =
+                material_value ? std::optional(material_reference(*material_value)) : std::nullopt;
+            return add_mesh_file(file, resolve(file), material, crease_angle);
         }
         if (shape == "sphere") {
             const JsonObject object(
@@ -769,15 +793,16 @@ class SceneBuilder {
     }
 
     std::uint32_t add_mesh_file(const JsonValue& file, const std::filesystem::path& path,
-                                std::uint32_t material) {
-        const auto key = std::pair{path.string(), material};
+                                std::optional<std::uint32_t> material, double crease_angle) {
+        const auto key = std::tuple{path.string(), material, crease_angle};
         if (const auto it = m_file_meshes.find(key); it != m_file_meshes.end()) {
             return it->second;
         }
         const auto index = static_cast<std::uint32_t>(m_scene.meshes.size());
         m_scene.meshes.emplace_back();
         m_mesh_triangles.push_back(0);  // Known once the file is read.
-        m_pending_files.push_back(PendingMeshFile{index, path, material, file.pointer()});
+        m_pending_files.push_back(
+            PendingMeshFile{index, path, material, crease_angle, file.pointer()});
         m_file_meshes.emplace(key, index);
         return index;
     }
@@ -865,33 +890,137 @@ class SceneBuilder {
     }
 
     void load_mesh_files() {
-        // A file used with several materials is read once; the copies differ in materials only.
-        std::map<std::filesystem::path, std::uint32_t> loaded;
-        for (const PendingMeshFile& pending : m_pending_files) {
-            Mesh& slot = m_scene.meshes[pending.mesh];
-            if (const auto it = loaded.find(pending.path); it != loaded.end()) {
-                slot = m_scene.meshes[it->second];
-                slot.materials.assign(slot.triangles.size(), pending.material);
-                continue;
-            }
+        // A file used with several fallback materials is read once; the copies differ in
+        // materials only.
+        struct Loaded {
             MeshLoadResult result;
-            try {
-                result = load_mesh(pending.path, pending.material);
-            } catch (const std::exception& e) {
-                throw Error(m_file, pending.pointer, e.what());
+            std::vector<std::uint32_t> use_materials;  ///< Scene material of each `usemtl` name.
+        };
+        std::map<std::pair<std::filesystem::path, double>, Loaded> loaded;
+        for (const PendingMeshFile& pending : m_pending_files) {
+            const auto key = std::pair{pending.path, pending.crease_angle};
+            auto it = loaded.find(key);
+            if (it == loaded.end()) {
+                Loaded file;
+                try {
+                    file.result = load_mesh(pending.path, 0, pending.crease_angle);
+                    file.use_materials = file_materials(pending.path, file.result);
+                } catch (const std::exception& e) {
+                    throw Error(m_file, pending.pointer, e.what());
+                }
+                const std::size_t dropped = file.result.degenerate_triangles_removed;
+                if (dropped > 0 && m_options.warn) {
+                    m_options.warn(fmt::format(
+                        "{}: {}: {}: dropped {} degenerate triangle{}", m_file.string(),
+                        pending.pointer, pending.path.string(), dropped, dropped == 1 ? "" : "s"));
+                }
+                it = loaded.emplace(key, std::move(file)).first;
             }
-            const std::size_t dropped = result.degenerate_triangles_removed;
-            if (dropped > 0 && m_options.warn) {
-                m_options.warn(fmt::format("{}: {}: {}: dropped {} degenerate triangle{}",
-                                           m_file.string(), pending.pointer, pending.path.string(),
-                                           dropped, dropped == 1 ? "" : "s"));
+            const Loaded& file = it->second;
+            Mesh& slot = m_scene.meshes[pending.mesh];
+            slot = file.result.mesh;
+            const std::vector<std::uint32_t>& uses = file.result.triangle_material_uses;
+            const bool any_without =
+                uses.empty() || std::find(uses.begin(), uses.end(), kNoMaterialUse) != uses.end();
+            const std::uint32_t fallback = !any_without       ? 0u
+                                           : pending.material ? *pending.material
+                                                              : default_material();
+            for (std::size_t t = 0; t < slot.materials.size(); ++t) {
+                const std::uint32_t use = uses.empty() ? kNoMaterialUse : uses[t];
+                slot.materials[t] = use == kNoMaterialUse ? fallback : file.use_materials[use];
             }
-            slot = std::move(result.mesh);
-            loaded.emplace(pending.path, pending.mesh);
         }
         for (const PendingMeshFile& pending : m_pending_files) {
             m_mesh_triangles[pending.mesh] = m_scene.meshes[pending.mesh].triangle_count();
         }
+    }
+
+    /// The scene material of each `usemtl` name of a loaded OBJ file, from its libraries.
+    std::vector<std::uint32_t> file_materials(const std::filesystem::path& mesh_file,
+                                              const MeshLoadResult& result) {
+        std::vector<const MtlLibrary*> libraries;
+        for (const MeshFileName& name : result.material_libraries) {
+            const std::filesystem::path path = mesh_file.parent_path() / name.name;
+            auto it = m_libraries.find(path);
+            if (it == m_libraries.end()) {
+                std::error_code error;
+                if (!std::filesystem::is_regular_file(path, error)) {
+                    throw Error(mesh_file, fmt::format("line {}", name.line),
+                                fmt::format("material library '{}' not found (looked for {})",
+                                            name.name, path.string()));
+                }
+                it = m_libraries.emplace(path, read_mtl(path, m_options.warn)).first;
+            }
+            libraries.push_back(&it->second);
+        }
+        std::vector<std::uint32_t> materials;
+        for (const MeshFileName& use : result.material_uses) {
+            const MtlLibrary* found_in = nullptr;
+            const MtlMaterial* found = nullptr;
+            for (const MtlLibrary* library : libraries) {
+                if ((found = library->find(use.name)) != nullptr) {
+                    found_in = library;
+                    break;
+                }
+            }
+            if (found == nullptr) {
+                std::vector<std::string> names;
+                for (const MeshFileName& library : result.material_libraries) {
+                    names.push_back(library.name);
+                }
+                throw Error(mesh_file, fmt::format("line {}", use.line),
+                            names.empty()
+                                ? fmt::format("'usemtl {}' but the file names no material "
+                                              "library ('mtllib')",
+                                              use.name)
+                                : fmt::format("material '{}' is in none of its libraries ({})",
+                                              use.name, join(names, ", ")));
+            }
+            materials.push_back(mtl_material(*found_in, *found));
+        }
+        return materials;
+    }
+
+    /// The scene material of an MTL material, made once however many files use it.
+    std::uint32_t mtl_material(const MtlLibrary& library, const MtlMaterial& mtl) {
+        const auto key = std::pair{library.file, mtl.name};
+        if (const auto it = m_mtl_materials.find(key); it != m_mtl_materials.end()) {
+            return it->second;
+        }
+        const auto texture = [this](const std::filesystem::path& path) {
+            return texture_index(path, true);
+        };
+        const std::string name =
+            unique_material_name(library.file.filename().string() + ":" + mtl.name);
+        const auto index =
+            add_material(material_from_mtl(mtl, library.file, name, texture, m_options.warn));
+        m_mtl_materials.emplace(key, index);
+        return index;
+    }
+
+    /// Grey (the JSON material's defaults) for mesh faces given no material at all.
+    std::uint32_t default_material() {
+        if (!m_default_material) {
+            Material m;
+            m.name = unique_material_name("default");
+            m_default_material = add_material(std::move(m));
+        }
+        return *m_default_material;
+    }
+
+    std::string unique_material_name(const std::string& base) const {
+        std::string name = base;
+        for (int n = 2; m_material_index.count(name) != 0; ++n) {
+            name = fmt::format("{} ({})", base, n);
+        }
+        return name;
+    }
+
+    std::uint32_t add_material(Material material) {
+        const auto index = static_cast<std::uint32_t>(m_scene.materials.size());
+        m_material_index.emplace(material.name, index);
+        m_scene.materials.push_back(std::move(material));
+        return index;
     }
 
     const std::filesystem::path& m_file;
@@ -902,7 +1031,12 @@ class SceneBuilder {
     std::map<std::string, std::uint32_t> m_material_index;
     std::map<std::string, std::uint32_t> m_group_index;
     std::map<std::pair<std::string, bool>, int> m_texture_index;
-    std::map<std::pair<std::string, std::uint32_t>, std::uint32_t> m_file_meshes;
+    std::map<std::tuple<std::string, std::optional<std::uint32_t>, double>, std::uint32_t>
+        m_file_meshes;
+    /// Material libraries read, by path, and the scene material of each (library, name) used.
+    std::map<std::filesystem::path, MtlLibrary> m_libraries;
+    std::map<std::pair<std::filesystem::path, std::string>, std::uint32_t> m_mtl_materials;
+    std::optional<std::uint32_t> m_default_material;
     std::map<std::string, std::uint32_t> m_procedural_meshes;
     std::vector<PendingMeshFile> m_pending_files;
     std::vector<PendingProcedural> m_pending_procedural;
@@ -934,6 +1068,7 @@ Scene load_scene(const std::filesystem::path& file, const SceneLoadOptions& opti
         check_expansion(
             scene, mesh_triangles, options.budgets,
             [&scene](std::uint32_t group) { return scene.groups[group].name; }, "");
+        scene.mesh_lights = emissive_lights(scene);
         return scene;
     }
     return parse_scene(read_scene_text(file), file, options);

@@ -30,8 +30,9 @@ static_assert(sizeof(PointLight) == 24, "write the new PointLight field to the s
 static_assert(sizeof(EllipticalAreaLight) == 52,
               "write the new EllipticalAreaLight field to the scene record");
 static_assert(sizeof(Texture) == 48, "write the new Texture field to the scene record");
-static_assert(sizeof(Material) == 120, "write the new Material field to the scene record");
-static_assert(sizeof(Scene) == 304, "write the new Scene field to the scene record");
+static_assert(sizeof(Material) == 128, "write the new Material field to the scene record");
+// Scene::mesh_lights is not written: every loader derives it from the geometry's emissive faces.
+static_assert(sizeof(Scene) == 328, "write the new Scene field to the scene record");
 
 // The loader's conversion of "fov", which the written degrees must undo exactly.
 constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
@@ -172,6 +173,9 @@ class RecordWriter {
             material["transparency"] = number(m.transparency, pointer + "/transparency");
             material["ior"] = number(m.ior, pointer + "/ior");
             material["roughness"] = number(m.roughness, pointer + "/roughness");
+            if (m.emits()) {
+                material["emission"] = colour(m.emission, pointer + "/emission");
+            }
             if (m.texture >= 0) {
                 material["texture"] = texture(m, pointer + "/texture");
             }

@@ -186,6 +186,7 @@ class ConeTracer {
     ConeTracer(const ConeGeometry& geometry, const ConeTraversalOptions& options, int max_depth,
                const std::atomic<bool>* stop)
         : m_scene(geometry.scene()),
+          m_area_lights(geometry.area_lights()),
           m_traversal(geometry, options, stop),
           m_max_depth(max_depth),
           m_compositing(options.compositing),
@@ -412,7 +413,7 @@ class ConeTracer {
                 result += visible * delivered;
             }
         }
-        for (const EllipticalAreaLight& light : m_scene.area_lights) {
+        for (const EllipticalAreaLight& light : m_area_lights) {
             const std::size_t index = light_index++;
             // The light's whole extent gives the unoccluded irradiance and the highlight
             // (trace/render/area_light.h); the shadow cone towards its centre, widened by its
@@ -604,6 +605,8 @@ class ConeTracer {
     }
 
     const Scene& m_scene;
+    /// The scene's ellipses and its mesh lights' equivalent ones (trace/render/mesh_light.h).
+    const std::vector<EllipticalAreaLight>& m_area_lights;
     ConeTraversal m_traversal;
     int m_max_depth;
     Compositing m_compositing;

@@ -7,6 +7,7 @@
 #include "trace/cone/apex_ellipse.h"
 #include "trace/cone/cone_bounds.h"
 #include "trace/cone/cone_point_lanes.h"
+#include "trace/render/mesh_light.h"
 
 #include <algorithm>
 #include <array>
@@ -1269,7 +1270,8 @@ ConeGeometry::ConeGeometry(const HierarchyView& view, const Scene& scene,
       m_closed(m_view),
       m_meshes_below(m_view),
       m_glinting(m_view),
-      m_highlight_lights(scene) {
+      m_area_lights(elliptical_lights(scene)),
+      m_highlight_lights(scene, m_area_lights) {
     m_to_object.reserve(m_view.instances.size());
     m_turn.reserve(m_view.instances.size());
     m_normal_to_group.reserve(m_view.instances.size());

@@ -199,6 +199,8 @@ class ConeGeometry {
     const ClosedSurfaces& closed_surfaces() const { return m_closed; }
     const MeshesBelow& meshes_below() const { return m_meshes_below; }
     const GlintingNodes& glinting_nodes() const { return m_glinting; }
+    /// The scene's elliptical lights and its mesh lights as ellipses (elliptical_lights).
+    const std::vector<EllipticalAreaLight>& area_lights() const { return m_area_lights; }
     /// The scene's first lights, as the highlight mixture needs them.
     const HighlightLights& highlight_lights() const { return m_highlight_lights; }
 
@@ -247,6 +249,7 @@ class ConeGeometry {
     ClosedSurfaces m_closed;
     MeshesBelow m_meshes_below;
     GlintingNodes m_glinting;
+    std::vector<EllipticalAreaLight> m_area_lights;
     HighlightLights m_highlight_lights;
     std::vector<ConeNodeClusters> m_node_clusters;
     static constexpr std::uint32_t kNoChildren = 0xffffffffu;

@@ -1,5 +1,6 @@
 #include "trace/cone/highlight_mixture.h"
 
+#include "trace/render/mesh_light.h"
 #include "trace/render/shading.h"
 
 #include <algorithm>
@@ -40,14 +41,18 @@ float gaussian_highlight(float exponent, float mirror_cosine, float normal_cosin
     return lobe * (2.0f * kPi / exponent) * along * across / solid_angle;
 }
 
-HighlightLights::HighlightLights(const Scene& scene) {
+HighlightLights::HighlightLights(const Scene& scene)
+    : HighlightLights(scene, elliptical_lights(scene)) {}
+
+HighlightLights::HighlightLights(const Scene& scene,
+                                 const std::vector<EllipticalAreaLight>& area_lights) {
     for (const PointLight& light : scene.point_lights) {
         if (m_count == kHighlightLights) {
             return;
         }
         m_lights[m_count++].centre = light.position;
     }
-    for (const EllipticalAreaLight& light : scene.area_lights) {
+    for (const EllipticalAreaLight& light : area_lights) {
         if (m_count == kHighlightLights) {
             return;
         }

@@ -60,6 +60,10 @@ float gaussian_highlight(float exponent, float mirror_cosine, float normal_cosin
 /// and how large it is (world space).
 class HighlightLights {
   public:
+    /// The scene's point lights, then `area_lights` (the scene's ellipses and its mesh lights'
+    /// equivalent ones: elliptical_lights).
+    HighlightLights(const Scene& scene, const std::vector<EllipticalAreaLight>& area_lights);
+    /// The same with the scene's own elliptical_lights.
     explicit HighlightLights(const Scene& scene);
 
     std::size_t count() const { return m_count; }

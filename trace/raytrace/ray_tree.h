@@ -7,8 +7,13 @@
 // - CentreSampling (whitted): area lights' exact unoccluded irradiance and highlight from their
 //   whole extent, times a hard shadow towards their centres; mirror and refraction directions
 //   exactly (roughness ignored).
-// - StochasticSampling (distributed): one uniform point on each elliptical area light (soft
-//   shadows), reflected and refracted directions spread by the material roughness (glossy).
+// - StochasticSampling (distributed): one uniform point on each area light, elliptical or made of
+//   emissive faces (soft shadows), reflected and refracted directions spread by the material
+//   roughness (glossy).
+//
+// Emissive faces (Material::emission) are seen as what they emit from their front, and light the
+// scene as Scene::mesh_lights. A shadow ray towards a point of such a light stops short of it
+// (kEmitterShadowReach), so that the emitter's own faces do not shadow it.
 
 #include "common/footprint/footprint.h"
 #include "common/math/sampling.h"
@@ -18,6 +23,7 @@
 #include "trace/bvh/scene_bvh.h"
 #include "trace/raytrace/surface_point.h"
 #include "trace/render/area_light.h"
+#include "trace/render/mesh_light.h"
 #include "trace/render/render.h"
 #include "trace/render/scattering.h"
 #include "trace/render/shading.h"
@@ -35,6 +41,9 @@ struct CentreSampling {
     LightSample area_light(const EllipticalAreaLight& light, const Vec3f& p) const {
         return sample_area_light_centre(light, p);
     }
+    LightSample mesh_light(const MeshAreaLight& light, const Vec3f& p) const {
+        return sample_mesh_light_centre(light, p);
+    }
     Vec3f spread(const Vec3f& direction, float /*roughness*/) const { return direction; }
 };
 
@@ -46,6 +55,10 @@ class StochasticSampling {
     LightSample area_light(const EllipticalAreaLight& light, const Vec3f& p) {
         const Vec2f u = m_sampler.next_2d();
         return sample_area_light(light, p, u.x(), u.y());
+    }
+    LightSample mesh_light(const MeshAreaLight& light, const Vec3f& p) {
+        const Vec2f u = m_sampler.next_2d();
+        return sample_mesh_light(light, p, u.x(), u.y());
     }
     Vec3f spread(const Vec3f& direction, float roughness) {
         if (!(roughness > 0.0f)) {
@@ -98,6 +111,11 @@ struct RayFootprint {
 /// by 1/cos. It only keeps the width finite for a ray parallel to the surface: at 1e-3 (89.94°)
 /// the width is already a thousand times the face-on one.
 inline constexpr float kMinimumFootprintCosine = 1e-3f;
+
+/// The share of its length a shadow ray towards a point on an emissive face travels: the point is
+/// on the emitter's own faces, which must not shadow it (1e-4 is far above float rounding of a
+/// hit distance, and far below any gap between an emitter and what could stand in front of it).
+inline constexpr float kEmitterShadowReach = 1.0f - 1e-4f;
 
 /// Pixel differentials shrink with the samples sharing a pixel, but never below an eighth of a
 /// pixel, so textures are not under-filtered at high sample counts (pbrt-v4's rule).
@@ -188,6 +206,27 @@ Rgb RayTree<Sampling>::direct_light(const SurfacePoint& sp, const Material& mate
             add(sampling.area_light(light, sp.position));
         }
     }
+    for (const MeshAreaLight& light : m_scene.mesh_lights) {
+        LightSample sample = sampling.mesh_light(light, sp.position);
+        sample.distance *= kEmitterShadowReach;
+        if constexpr (Sampling::kWholeAreaLights) {
+            if (sp.geometric_normal.dot(sample.wi) <= 0.0f) {
+                continue;  // the shadow ray to the centre would start into the surface
+            }
+            const Rgb unoccluded =
+                mesh_light_unoccluded(light, sp.position, sp.shading_normal, wo, material, albedo);
+            if (!(unoccluded.maxCoeff() > 0.0f)) {
+                continue;
+            }
+            ++counters.shadow;
+            if (m_bvh.occluded(Ray{sp.spawn_origin(sample.wi), sample.wi, sample.distance})) {
+                continue;
+            }
+            sum += unoccluded;
+        } else {
+            add(sample);
+        }
+    }
     return sum;
 }
 
@@ -242,6 +281,9 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
     }
     Rgb result =
         m_scene.ambient * albedo + direct_light(sp, material, albedo, wo, counters, sampling);
+    if (sp.entering) {
+        result += material.emission;
+    }
     if (depth >= m_max_depth) {
         return result;
     }

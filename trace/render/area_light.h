@@ -62,8 +62,13 @@ struct AreaLightTerms {
     /// (area_light_unoccluded for shares of 1).
     Rgb reflected(const EllipticalAreaLight& light, const Material& material, const Rgb& albedo,
                   float diffuse_share = 1.0f, float highlight_share = 1.0f) const {
-        return light.radiance * (albedo * (diffuse_share * diffuse) +
-                                 material.specular * (highlight_share * highlight));
+        return reflected(light.radiance, material, albedo, diffuse_share, highlight_share);
+    }
+    /// The same for a light of `radiance` (a mesh light's: trace/render/mesh_light.h).
+    Rgb reflected(const Rgb& radiance, const Material& material, const Rgb& albedo,
+                  float diffuse_share = 1.0f, float highlight_share = 1.0f) const {
+        return radiance * (albedo * (diffuse_share * diffuse) +
+                           material.specular * (highlight_share * highlight));
     }
 };
 AreaLightTerms area_light_terms(const EllipticalAreaLight& light, const Vec3f& p, const Vec3f& n,

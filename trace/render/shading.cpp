@@ -43,10 +43,8 @@ LightSample sample_point_light(const PointLight& light, const Vec3f& p) {
     return {to_light / d, d, light.intensity / d2};
 }
 
-namespace {
-
-/// What the emitter point `point` of `light` delivers to p (see LightSample).
-LightSample emitter_point(const EllipticalAreaLight& light, const Vec3f& point, const Vec3f& p) {
+LightSample flat_emitter_point(const Vec3f& point, const Vec3f& normal, bool two_sided,
+                               const Rgb& radiance_area, const Vec3f& p) {
     const Vec3f to_light = point - p;
     const float d2 = to_light.squaredNorm();
     const float d = std::sqrt(d2);
@@ -54,9 +52,17 @@ LightSample emitter_point(const EllipticalAreaLight& light, const Vec3f& point, 
         return {Vec3f(0.0f, 0.0f, 1.0f), 0.0f, Rgb::Zero()};
     }
     const Vec3f wi = to_light / d;
-    const float cos_light = -wi.dot(light.normal());
-    const float cos_emit = light.two_sided ? std::abs(cos_light) : std::max(0.0f, cos_light);
-    return {wi, d, light.radiance * (light.area() * cos_emit / d2)};
+    const float cos_light = -wi.dot(normal);
+    const float cos_emit = two_sided ? std::abs(cos_light) : std::max(0.0f, cos_light);
+    return {wi, d, radiance_area * (cos_emit / d2)};
+}
+
+namespace {
+
+/// What the emitter point `point` of `light` delivers to p (see LightSample).
+LightSample emitter_point(const EllipticalAreaLight& light, const Vec3f& point, const Vec3f& p) {
+    return flat_emitter_point(point, light.normal(), light.two_sided, light.radiance * light.area(),
+                              p);
 }
 
 }  // namespace

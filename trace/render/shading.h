@@ -50,6 +50,13 @@ struct LightSample {
     Rgb irradiance;  ///< Intensity towards the point / distance² (before the cosine).
 };
 
+/// What the point `point` of a flat emitter delivers to p, as the one-sample estimator of an
+/// area light sampled uniformly by area: radiance·A·cos θ_emitter / d², with cos θ_emitter
+/// against the unit `normal` (its absolute value when `two_sided`, zero behind a one-sided face).
+/// `radiance_area` is the radiance times the emitter's whole area.
+LightSample flat_emitter_point(const Vec3f& point, const Vec3f& normal, bool two_sided,
+                               const Rgb& radiance_area, const Vec3f& p);
+
 /// A point light seen from p.
 LightSample sample_point_light(const PointLight& light, const Vec3f& p);
 

@@ -82,6 +82,7 @@ void expect_same(const Material& original, const Material& record) {
     expect_same(original.transparency, record.transparency, "transparency");
     expect_same(original.ior, record.ior, "ior");
     expect_same(original.roughness, record.roughness, "roughness");
+    expect_same(original.emission, record.emission, "emission");
     EXPECT_EQ(original.texture, record.texture);
     const Eigen::Matrix3f a = original.uv_transform.matrix();
     const Eigen::Matrix3f b = record.uv_transform.matrix();
@@ -211,6 +212,7 @@ Scene every_field_scene(const TextureFiles& files) {
     wood.specular = Rgb(0.12f, 0.13f, 0.14f);
     wood.phong_exponent = 40.5f;
     wood.roughness = 0.05f;
+    wood.emission = Rgb(17.0f, 0.1f, 1e-7f);  // a glowing surface, an OBJ `Ke`
     wood.texture = 0;
     wood.uv_transform = Affine2f::Identity();
     wood.uv_transform.translate(Vec2f(0.5f, -0.25f))
