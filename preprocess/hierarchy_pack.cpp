@@ -40,6 +40,10 @@ void pack_points(const OctreeNode& node, const HierarchyChannels& channels, Hier
         if (channels.refraction) {
             data.refraction.push_back({encode_unit8(p.transparency), encode_ior8(p.ior)});
         }
+        if (channels.emission) {
+            data.emission.push_back({{encode_half(p.emission[0]), encode_half(p.emission[1]),
+                                      encode_half(p.emission[2])}});
+        }
     }
 }
 

@@ -349,6 +349,7 @@ class SourceSamples {
             s.transparency = p.transparency;
             s.roughness = p.roughness;
             s.ior = p.ior;
+            s.emission = p.emission;
             samples.push_back(s);
         }
         const auto rescale = static_cast<float>(kept_total > 0.0 ? total / kept_total : 1.0);

@@ -23,6 +23,7 @@ HierarchyChannels needed_channels(std::span<const Mesh* const> meshes,
         channels.specular = channels.specular || (material.specular > 0.0f).any();
         channels.mirror = channels.mirror || material.reflects() || material.refracts();
         channels.refraction = channels.refraction || material.refracts();
+        channels.emission = channels.emission || material.emits();
         channels.uvs = channels.uvs || (material.texture >= 0 && textured_with_uvs[m]);
     }
     return channels;

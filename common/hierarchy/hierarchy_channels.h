@@ -16,6 +16,7 @@ struct HierarchyChannels {
     bool specular = false;    ///< Some used material has a specular colour.
     bool mirror = false;      ///< Some used material reflects or refracts: normal gradients.
     bool refraction = false;  ///< Some used material is transparent.
+    bool emission = false;    ///< Some used material emits.
     bool uvs = false;         ///< Some used material is textured and its mesh has uvs.
 };
 

@@ -12,6 +12,7 @@
 //   'PMIR' any mirror     reflectivity, roughness, normal gradient, tangent angle
 //          or refraction                                   (PointMirror, 12 bytes)
 //   'PTRN' any refraction transparency, index of refraction (PointRefraction, 2 bytes)
+//   'PEMI' any emission   emitted radiance                 (PointEmission, 6 bytes)
 //
 // Geometry is instanced (DESIGN.md, Wand & Straßer §6 "hierarchical instantiation"): the file
 // holds objects ('OBJS', HierarchyObject), each a tree of nodes in its own space. A mesh object
@@ -156,6 +157,13 @@ struct PointRefraction {
 };
 static_assert(sizeof(PointRefraction) == 2);
 
+struct PointEmission {
+    /// encode_half of the emitted radiance per channel: a light's radiance is far above 1, which
+    /// encode_rgb8 could not hold (relative step 2⁻¹¹ up to 65504).
+    std::array<std::uint16_t, 3> rgb;
+};
+static_assert(sizeof(PointEmission) == 6);
+
 /// Where a stored point's surface lies, in its node's space: the voxel centre moved along the
 /// decoded normal by the decoded offset (PointOffset), what a tracer intersects; here from the
 /// decoded voxel centre, voxel side and normal.
@@ -186,6 +194,7 @@ struct HierarchyView {
     std::span<const PointSpecular> specular;      ///< May be empty.
     std::span<const PointMirror> mirror;          ///< May be empty.
     std::span<const PointRefraction> refraction;  ///< May be empty.
+    std::span<const PointEmission> emission;      ///< May be empty.
     std::span<const std::uint32_t> node_triangles;
     std::span<const std::array<float, 3>> vertex_positions;
     std::span<const NormalCode> vertex_normals;
@@ -208,6 +217,7 @@ struct HierarchyData {
     std::vector<PointSpecular> specular;
     std::vector<PointMirror> mirror;
     std::vector<PointRefraction> refraction;
+    std::vector<PointEmission> emission;
     std::vector<std::uint32_t> node_triangles;
     std::vector<std::array<float, 3>> vertex_positions;
     std::vector<NormalCode> vertex_normals;
@@ -218,23 +228,10 @@ struct HierarchyData {
     std::string build_json = "{}";  ///< Build parameters.
 
     HierarchyView view() const {
-        return {grid,
-                world_object,
-                objects,
-                instances,
-                nodes,
-                core,
-                offset,
-                diffuse,
-                specular,
-                mirror,
-                refraction,
-                node_triangles,
-                vertex_positions,
-                vertex_normals,
-                vertex_uvs,
-                triangles,
-                triangle_materials};
+        return {grid,       world_object, objects,           instances,        nodes,
+                core,       offset,       diffuse,           specular,         mirror,
+                refraction, emission,     node_triangles,    vertex_positions, vertex_normals,
+                vertex_uvs, triangles,    triangle_materials};
     }
 };
 
@@ -263,6 +260,7 @@ class HierarchyFile {
     std::span<const PointSpecular> specular() const { return m_view.specular; }
     std::span<const PointMirror> mirror() const { return m_view.mirror; }
     std::span<const PointRefraction> refraction() const { return m_view.refraction; }
+    std::span<const PointEmission> emission() const { return m_view.emission; }
     std::span<const std::uint32_t> node_triangles() const { return m_view.node_triangles; }
     std::span<const std::array<float, 3>> vertex_positions() const {
         return m_view.vertex_positions;

@@ -31,6 +31,9 @@ std::string hierarchy_summary(const HierarchyFile& file, const std::string& inde
     if (!file.refraction().empty()) {
         out += " transparency ior";
     }
+    if (!file.emission().empty()) {
+        out += " emission";
+    }
     if (!file.vertex_uvs().empty()) {
         out += " uv";
     }

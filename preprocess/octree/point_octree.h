@@ -62,6 +62,7 @@ struct OctreePoint {
     float transparency = 0.0f;
     float roughness = 0.0f;
     float ior = 1.0f;
+    Rgb emission = Rgb::Zero();  ///< Radiance emitted from the front (Material::emission).
     /// Where the surface lies from the voxel centre along `normal`, in voxel sides: the
     /// prefilter-weighted mean of the samples' (position − centre)·normal. A tracer places the
     /// point at centre + offset·side/k·normal, on the surface instead of up to √3/2 voxels off

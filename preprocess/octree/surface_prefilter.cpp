@@ -106,6 +106,7 @@ void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
         s.transparency = material.transparency;
         s.roughness = material.roughness;
         s.ior = material.ior;
+        s.emission = material.emission;
         s.area = share;
     }
 }
@@ -180,6 +181,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         double weight_sum = 0.0;
         double area_share = 0.0;
         Eigen::Vector3d diffuse = Eigen::Vector3d::Zero(), specular = Eigen::Vector3d::Zero();
+        Eigen::Vector3d emission = Eigen::Vector3d::Zero();
         Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
         double log_phong = 0.0, reflectivity = 0.0, transparency = 0.0, roughness = 0.0, ior = 0.0;
         std::vector<NormalSample> neighbours;
@@ -207,6 +209,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
                 transparency += w * s.transparency;
                 roughness += w * s.roughness;
                 ior += w * s.ior;
+                emission += w * s.emission.matrix().cast<double>();
             }
         });
         if (!(weight_sum > 0.0)) {
@@ -229,6 +232,7 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         point.transparency = static_cast<float>(transparency * inv);
         point.roughness = static_cast<float>(roughness * inv);
         point.ior = static_cast<float>(ior * inv);
+        point.emission = (emission * inv).cast<float>().array();
         point.coverage = static_cast<float>(area_share);  // the samples' areas are in voxel faces
         point.normal_length = static_cast<float>(std::min(1.0, normal_sum.norm() * inv));
     });

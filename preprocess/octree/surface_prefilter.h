@@ -32,6 +32,7 @@ struct SurfaceSample {
     float transparency = 0.0f;
     float roughness = 0.0f;
     float ior = 1.0f;
+    Rgb emission = Rgb::Zero();
     /// Surface area the sample stands for, in voxel faces ((side/k)²) of the node gathering it:
     /// dimensionless, so that neither a node of side 1e30 nor one of 1e-30 over- or underflows.
     float area = 0.0f;

@@ -33,6 +33,7 @@ std::vector<Material> materials(bool glass) {
         m.reflectivity = 0.1f;
         m.transparency = 0.8f;
         m.ior = 1.5f;
+        m.emission = Rgb(17.0f, 12.0f, 0.004f);  // a glowing glass: every channel present
     }
     return {m};
 }
@@ -47,6 +48,7 @@ TEST(HierarchyPack, RecordsDecodeToTheOctreeAndRoundTripThroughTheFile) {
     ASSERT_EQ(data.mirror.size(), data.core.size());
     ASSERT_EQ(data.refraction.size(), data.core.size());
     ASSERT_EQ(data.specular.size(), data.core.size());
+    ASSERT_EQ(data.emission.size(), data.core.size());
     EXPECT_TRUE(data.vertex_uvs.empty());  // nothing is textured
     std::size_t point = 0;
     for (std::size_t n = 0; n < octree.nodes.size(); ++n) {
@@ -68,6 +70,14 @@ TEST(HierarchyPack, RecordsDecodeToTheOctreeAndRoundTripThroughTheFile) {
             EXPECT_LE((g - p.gradient).cwiseAbs().maxCoeff(),
                       2.0f * kHalfRelativeError * p.gradient.cwiseAbs().maxCoeff() + 1e-6f);
             EXPECT_NEAR(decode_ior8(data.refraction[point].ior), p.ior, 4e-3f);
+            for (std::size_t c = 0; c < 3; ++c) {
+                // One emitting material: every point's emission is its own, to half precision.
+                EXPECT_NEAR(decode_half(data.emission[point].rgb[c]),
+                            p.emission[static_cast<int>(c)],
+                            kHalfRelativeError * p.emission[static_cast<int>(c)]);
+                EXPECT_NEAR(p.emission[static_cast<int>(c)], glass[0].emission[static_cast<int>(c)],
+                            1e-5f * glass[0].emission[static_cast<int>(c)]);
+            }
             ++point;
         }
         for (const std::int32_t c : node.children) {

@@ -22,6 +22,7 @@ struct ConeSurface {
     Vec3f normal = Vec3f::Zero();  ///< Unit normal of one contributor; Σ w·n in the sums.
     Rgb diffuse = Rgb::Zero();     ///< Diffuse albedo, texture included (linear).
     Rgb specular = Rgb::Zero();
+    Rgb emission = Rgb::Zero();  ///< Radiance emitted from the front (Material::emission).
     float phong_exponent = 0.0f;
     float reflectivity = 0.0f;
     float transparency = 0.0f;
@@ -76,6 +77,7 @@ struct ConeSurface {
         normal += weight * p.normal;
         diffuse += weight * p.diffuse;
         specular += weight * p.specular;
+        emission += weight * p.emission;
         phong_exponent += weight * p.phong_exponent;
         reflectivity += weight * p.reflectivity;
         transparency += weight * p.transparency;
@@ -91,6 +93,7 @@ struct ConeSurface {
         normal += o.normal;
         diffuse += o.diffuse;
         specular += o.specular;
+        emission += o.emission;
         phong_exponent += o.phong_exponent;
         reflectivity += o.reflectivity;
         transparency += o.transparency;
@@ -114,6 +117,7 @@ struct ConeSurface {
         a.normal_length = std::min(1.0f, length * inverse);
         a.diffuse = diffuse * inverse;
         a.specular = specular * inverse;
+        a.emission = emission * inverse;
         a.phong_exponent = phong_exponent * inverse;
         a.reflectivity = reflectivity * inverse;
         a.transparency = transparency * inverse;

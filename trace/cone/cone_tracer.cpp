@@ -350,8 +350,10 @@ class ConeTracer {
         const Hit hit = hit_of(s, fragment, ray);
         const Material material = footprint_material(s);
         const Rgb albedo = s.diffuse * local_share(s.reflectivity, s.transparency);
-        const Rgb local = add_direct_light(m_scene.ambient * albedo, hit, material, albedo,
-                                           s.highlights, weight, work);
+        // Emitting surfaces glow from their front: the side their mean normal faces.
+        const Rgb emitted = s.normal.dot(hit.direction) < 0.0f ? s.emission : Rgb::Zero();
+        const Rgb local = add_direct_light(m_scene.ambient * albedo + emitted, hit, material,
+                                           albedo, s.highlights, weight, work);
         if (depth >= m_max_depth) {
             return local;
         }

@@ -759,6 +759,10 @@ class Walk {
             s.transparency = decode_unit8(m_view.refraction[i].transparency);
             s.ior = decode_ior8(m_view.refraction[i].ior);
         }
+        if (!m_view.emission.empty()) {
+            const PointEmission& e = m_view.emission[i];
+            s.emission = Rgb(decode_half(e.rgb[0]), decode_half(e.rgb[1]), decode_half(e.rgb[2]));
+        }
         if (!m_view.mirror.empty()) {
             const PointMirror& mirror = m_view.mirror[i];
             s.reflectivity = decode_unit8(mirror.reflectivity);
@@ -1112,6 +1116,7 @@ class Walk {
         s.transparency = material.transparency;
         s.roughness = material.roughness;
         s.ior = material.ior;
+        s.emission = material.emission;
         if (material.texture >= 0) {
             // The footprint at the hit, projected along the ray onto the triangle's plane
             // (Igehy's transfer), gives the texture-space footprint of the lookup (§4).

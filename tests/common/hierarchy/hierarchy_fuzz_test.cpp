@@ -315,6 +315,7 @@ Findings walk(const HierarchyFile& h, std::uint32_t materials) {
     per(h.specular().size(), points, true, "PSPC");
     per(h.mirror().size(), points, true, "PMIR");
     per(h.refraction().size(), points, true, "PTRN");
+    per(h.emission().size(), points, true, "PEMI");
     per(h.vertex_normals().size(), vertices, false, "VNRM");
     per(h.vertex_uvs().size(), vertices, true, "VTUV");
     per(h.triangle_materials().size(), triangles.size(), false, "TMAT");
@@ -430,6 +431,9 @@ Findings walk(const HierarchyFile& h, std::uint32_t materials) {
                 }
                 if (!h.refraction().empty()) {
                     f.digest += bits_of(h.refraction()[p]);
+                }
+                if (!h.emission().empty()) {
+                    f.digest += bits_of(h.emission()[p]);
                 }
             }
         }
