@@ -2054,3 +2054,45 @@ TEST(ConeRender, EmissiveFacesGlowAndLightTheSceneAsTheirEllipse) {
 
 }  // namespace
 }  // namespace mrt
+
+namespace mrt {
+namespace {
+
+TEST(ConeRender, PointsOfAnEmitterSeenFromAfarGlowAsItsTriangles) {
+    const testing::ScratchDirectory scratch("mrt_cone_render_test");
+    // A finely tessellated sphere a few pixels wide, whose points the cone meets, not its
+    // triangles: once glowing (the 'PEMI' channel) and once white under an ambient light of the
+    // same colour, whose reflected radiance equals that glow. The two images differ only by how
+    // the points carry emission and albedo, whatever the cone's coverage of the sphere.
+    const int resolution = 16;
+    const auto sphere_scene = [&](const json& material, const json& ambient) {
+        return json{
+            {"camera", camera_json(vec(0, 0, 200), vec(0, 0, 0), 3, resolution, resolution)},
+            {"ambient", ambient},
+            {"materials", {{"surface", material}}},
+            {"objects",
+             {{{"shape", "sphere"},
+               {"radius", 1},
+               {"segments", 128},
+               {"rings", 64},
+               {"material", "surface"}}}}};
+    };
+    const json colour = vec(2, 1, 0.5);
+    const ConeScene glowing(scratch.path(), sphere_scene({{"diffuse", 0}, {"emission", colour}}, 0),
+                            "glow.json");
+    const ConeScene lit(scratch.path(), sphere_scene({{"diffuse", 1}}, colour), "lit.json");
+    const ConeRenderOutput glow = glowing.render(resolution, resolution);
+    EXPECT_GT(glow.stats.primary.points_tested, 0u) << "the sphere is seen through its points";
+    const Rgb seen = mean_of(glow.render.image);
+    const Rgb reflected = mean_of(lit.render(resolution, resolution).render.image);
+    EXPECT_TRUE(seen.isApprox(reflected, 2e-3f))
+        << "glowing " << seen.transpose() << ", lit " << reflected.transpose();
+    EXPECT_NEAR(seen[0] / seen[2], 4.0f, 4e-3f) << "the emission's colour survives its encoding";
+    // And whitted, from the triangles, within the cone's coverage bias of a 3-pixel sphere.
+    const Rgb triangles = mean_of(glowing.whitted(resolution, resolution, 64));
+    EXPECT_TRUE(seen.isApprox(triangles, 0.06f))
+        << "cone " << seen.transpose() << ", whitted " << triangles.transpose();
+}
+
+}  // namespace
+}  // namespace mrt
