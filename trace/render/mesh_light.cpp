@@ -78,6 +78,12 @@ struct Polygon {
     }
 };
 
+/// A light's triangle relative to the receiver, in double (the formulas below lose nothing to
+/// the distances of a scene far from its origin).
+std::array<Vec3d, 3> relative_to(const MeshAreaLight::Triangle& t, const Vec3d& origin) {
+    return {to_double(t[0]) - origin, to_double(t[1]) - origin, to_double(t[2]) - origin};
+}
+
 Polygon triangle_polygon(const std::array<Vec3d, 3>& triangle) {
     Polygon polygon;
     for (std::size_t i = 0; i < 3; ++i) {
@@ -280,8 +286,7 @@ double mesh_light_projected_solid_angle(const MeshAreaLight& light, const Vec3f&
     const Vec3d normal = to_double(n).normalized();
     double sum = 0.0;
     for (const MeshAreaLight::Triangle& t : light.triangles()) {
-        const std::array<Vec3d, 3> relative = {to_double(t[0]) - origin, to_double(t[1]) - origin,
-                                               to_double(t[2]) - origin};
+        const std::array<Vec3d, 3> relative = relative_to(t, origin);
         // Lambert's sum is signed by the winding as seen from p: a triangle wound about the
         // light's normal and seen from its emitting side gives −2× its projected solid angle.
         const double winding =
@@ -336,8 +341,7 @@ float mesh_light_phong_highlight(const MeshAreaLight& light, const Vec3f& p, con
     double sum = 0.0;
     for (std::size_t index = 0; index < light.triangles().size(); ++index) {
         const MeshAreaLight::Triangle& t = light.triangles()[index];
-        const std::array<Vec3d, 3> relative = {to_double(t[0]) - origin, to_double(t[1]) - origin,
-                                               to_double(t[2]) - origin};
+        const std::array<Vec3d, 3> relative = relative_to(t, origin);
         const double winding =
             face.dot((relative[1] - relative[0]).cross(relative[2] - relative[0]));
         if (winding == 0.0) {
@@ -396,11 +400,9 @@ AreaLightTerms mesh_light_terms(const MeshAreaLight& light, const Vec3f& p, cons
 
 Rgb mesh_light_unoccluded(const MeshAreaLight& light, const Vec3f& p, const Vec3f& n,
                           const Vec3f& wo, const Material& material, const Rgb& albedo) {
-    const AreaLightTerms terms = mesh_light_terms(light, p, n, wo, material);
-    if (!(terms.diffuse > 0.0f) && !(terms.highlight > 0.0f)) {
-        return Rgb::Zero();
-    }
-    return terms.reflected(light.radiance(), material, albedo);
+    // Zero terms reflect zero: no early return needed.
+    return mesh_light_terms(light, p, n, wo, material)
+        .reflected(light.radiance(), material, albedo);
 }
 
 EllipticalAreaLight equivalent_ellipse(const MeshAreaLight& light) {
