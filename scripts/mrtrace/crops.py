@@ -8,10 +8,12 @@ discussion of docs/results.md points at its failures with these.
 A region is given in fractions of the image's width and height (so that the quick run's smaller
 images crop the same place). A column is "reference", a run's spec (its image), a spec followed
 by "~error" (its error image), or "@equal-time" (the distributed run at cone's time that the
-headline ratios name; left out, with a warning, when there is none)."""
+headline ratios name; where they interpolate between two runs, the one of the two nearer to
+cone's time; left out, with a warning, when there is none)."""
 
 import argparse
 import json
+import math
 import os
 import sys
 
@@ -31,16 +33,34 @@ def parse_rect(text):
     return label, (x0, y0, x1, y1)
 
 
+def equal_time_spec(results):
+    """The distributed run at cone's time: the one the headline names, or, where it interpolates
+    between two time-budget runs (their times scatter around their budgets on a busy machine),
+    the budget run nearest cone's time on the log scale; None without either."""
+    ratio = results.get("headline", {}).get("distributed_rmse_at_cone_time")
+    if not ratio:
+        return None
+    if ratio.get("numerator"):
+        return ratio["numerator"]
+    runs = results["runs"]
+    cone = next((r for r in runs if r["spec"] == ratio.get("denominator")), None)
+    budgeted = [r for r in runs if r["spec"].startswith("distributed:") and "time-budget=" in
+                r["spec"] and r.get("render_seconds", 0) > 0]
+    if cone is None or not cone.get("render_seconds", 0) > 0 or not budgeted:
+        return None
+    return min(budgeted, key=lambda r: abs(math.log(r["render_seconds"] / cone["render_seconds"]))
+               )["spec"]
+
+
 def column_image(results, directory, column):
     """(title, image file) of a column."""
     if column == "reference":
         return "reference", os.path.join(directory, results["reference"]["image"])
     if column == "@equal-time":
-        ratio = results.get("headline", {}).get("distributed_rmse_at_cone_time")
-        if not ratio or not ratio.get("numerator"):
+        column = equal_time_spec(results)
+        if column is None:
             raise ResultsError(f"{directory}/results.json: no distributed run at cone's time "
                                "(its headline has no distributed_rmse_at_cone_time run)")
-        column = ratio["numerator"]
     spec, _, kind = column.partition("~")
     if kind not in ("", "error"):
         raise ResultsError(f"column {column!r}: expected SPEC or SPEC~error")
@@ -67,8 +87,7 @@ def draw(output, directory, rects, columns, scale):
         results = json.load(f)
     images = []
     for column in columns:
-        if column == "@equal-time" and "distributed_rmse_at_cone_time" not in \
-                results.get("headline", {}):
+        if column == "@equal-time" and equal_time_spec(results) is None:
             # A cone faster than the smallest budget has no distributed run at its time.
             print(f"mrtrace.crops: {directory}: no distributed run at cone's time; column left out",
                   file=sys.stderr)

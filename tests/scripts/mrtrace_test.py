@@ -12,7 +12,7 @@ import sys
 import tempfile
 import unittest
 
-from mrtrace import page, results as mr
+from mrtrace import crops, page, results as mr
 
 
 def run_entry(method, spec, seconds, rmse, index):
@@ -234,6 +234,23 @@ class Pages(unittest.TestCase):
     def test_three_significant_digits(self):
         self.assertEqual([mr.fmt3(x) for x in (0.0412345, 41.23, 1234, 999.7, 0.91, 12.5, None)],
                          ["0.0412", "41.2", "1230", "1000", "0.910", "12.5", "—"])
+
+    def test_the_crops_equal_time_column_is_the_named_run_or_the_nearest_budget_run(self):
+        # On a busy machine the budget runs' times scatter, cone's time falls between two of
+        # them and the headline interpolates, naming no run: the crops take the nearer one.
+        runs = [{"spec": "cone", "render_seconds": 2.0},
+                {"spec": "distributed:time-budget=1", "render_seconds": 1.1},
+                {"spec": "distributed:time-budget=2", "render_seconds": 2.9},
+                {"spec": "whitted", "render_seconds": 1.9}]
+        named = {"distributed_rmse_at_cone_time": {"numerator": "distributed:time-budget=1",
+                                                   "denominator": "cone"}}
+        self.assertEqual(crops.equal_time_spec({"runs": runs, "headline": named}),
+                         "distributed:time-budget=1")
+        interpolated = {"distributed_rmse_at_cone_time": {"numerator": "", "denominator": "cone"}}
+        self.assertEqual(crops.equal_time_spec({"runs": runs, "headline": interpolated}),
+                         "distributed:time-budget=2")  # log(2.9/2) < log(2/1.1)
+        self.assertIsNone(crops.equal_time_spec({"runs": runs, "headline": {}}))
+        self.assertIsNone(crops.equal_time_spec({"runs": runs[:1], "headline": interpolated}))
 
 
 if __name__ == "__main__":
