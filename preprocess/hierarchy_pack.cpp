@@ -44,6 +44,9 @@ void pack_points(const OctreeNode& node, const HierarchyChannels& channels, Hier
             data.emission.push_back({{encode_half(p.emission[0]), encode_half(p.emission[1]),
                                       encode_half(p.emission[2])}});
         }
+        if (channels.opacity) {
+            data.opacity.push_back({encode_unit8(p.opacity)});
+        }
     }
 }
 

@@ -350,6 +350,7 @@ class SourceSamples {
             s.roughness = p.roughness;
             s.ior = p.ior;
             s.emission = p.emission;
+            s.opacity = p.opacity;
             samples.push_back(s);
         }
         const auto rescale = static_cast<float>(kept_total > 0.0 ? total / kept_total : 1.0);

@@ -24,7 +24,9 @@ HierarchyChannels needed_channels(std::span<const Mesh* const> meshes,
         channels.mirror = channels.mirror || material.reflects() || material.refracts();
         channels.refraction = channels.refraction || material.refracts();
         channels.emission = channels.emission || material.emits();
-        channels.uvs = channels.uvs || (material.texture >= 0 && textured_with_uvs[m]);
+        channels.opacity = channels.opacity || (material.cut_out() && textured_with_uvs[m]);
+        channels.uvs =
+            channels.uvs || ((material.texture >= 0 || material.cut_out()) && textured_with_uvs[m]);
     }
     return channels;
 }

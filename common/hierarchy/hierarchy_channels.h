@@ -17,7 +17,8 @@ struct HierarchyChannels {
     bool mirror = false;      ///< Some used material reflects or refracts: normal gradients.
     bool refraction = false;  ///< Some used material is transparent.
     bool emission = false;    ///< Some used material emits.
-    bool uvs = false;         ///< Some used material is textured and its mesh has uvs.
+    bool opacity = false;     ///< Some used material is cut out and its mesh has uvs.
+    bool uvs = false;         ///< Some used material is textured or cut out and its mesh has uvs.
 };
 
 /// The channels the materials of `materials` used by some triangle of `meshes` need.

@@ -23,6 +23,7 @@ constexpr std::uint32_t kSpecular = section_tag("PSPC");
 constexpr std::uint32_t kMirror = section_tag("PMIR");
 constexpr std::uint32_t kRefraction = section_tag("PTRN");
 constexpr std::uint32_t kEmission = section_tag("PEMI");
+constexpr std::uint32_t kOpacity = section_tag("POPA");
 constexpr std::uint32_t kNodeTriangles = section_tag("NTRI");
 constexpr std::uint32_t kPositions = section_tag("VPOS");
 constexpr std::uint32_t kNormals = section_tag("VNRM");
@@ -76,6 +77,7 @@ void check_lengths(const std::filesystem::path& file, const HierarchyView& a) {
     check_length(file, kMirror, a.mirror.size(), points, "point", Channel::Optional);
     check_length(file, kRefraction, a.refraction.size(), points, "point", Channel::Optional);
     check_length(file, kEmission, a.emission.size(), points, "point", Channel::Optional);
+    check_length(file, kOpacity, a.opacity.size(), points, "point", Channel::Optional);
     check_length(file, kNormals, a.vertex_normals.size(), a.vertex_positions.size(), "vertex",
                  Channel::Required);
     check_length(file, kUvs, a.vertex_uvs.size(), a.vertex_positions.size(), "vertex",
@@ -456,6 +458,7 @@ void write_hierarchy_file(const std::filesystem::path& path, const HierarchyData
     add_if_present(writer, kMirror, data.mirror);
     add_if_present(writer, kRefraction, data.refraction);
     add_if_present(writer, kEmission, data.emission);
+    add_if_present(writer, kOpacity, data.opacity);
     writer.add_array<std::uint32_t>(kNodeTriangles, data.node_triangles);
     writer.add_array<std::array<float, 3>>(kPositions, data.vertex_positions);
     writer.add_array<NormalCode>(kNormals, data.vertex_normals);
@@ -512,6 +515,8 @@ void HierarchyFile::check_channels(const HierarchyChannels& needed) const {
          "needs"},
         {needed.emission, !m_view.emission.empty(), kEmission,
          "emission channel, which an emitting material needs"},
+        {needed.opacity, !m_view.opacity.empty(), kOpacity,
+         "opacity channel, which a cut-out material needs"},
     };
     for (const Channel& c : channels) {
         if (c.needed && !c.present) {
@@ -557,6 +562,7 @@ HierarchyFile HierarchyFile::open(const std::filesystem::path& path,
     a.mirror = optional_array<PointMirror>(f, kMirror);
     a.refraction = optional_array<PointRefraction>(f, kRefraction);
     a.emission = optional_array<PointEmission>(f, kEmission);
+    a.opacity = optional_array<PointOpacity>(f, kOpacity);
     a.node_triangles = f.array<std::uint32_t>(kNodeTriangles);
     a.vertex_positions = f.array<std::array<float, 3>>(kPositions);
     a.vertex_normals = f.array<NormalCode>(kNormals);

@@ -13,6 +13,7 @@
 //          or refraction                                   (PointMirror, 12 bytes)
 //   'PTRN' any refraction transparency, index of refraction (PointRefraction, 2 bytes)
 //   'PEMI' any emission   emitted radiance                 (PointEmission, 6 bytes)
+//   'POPA' any cut-out    share of the area that stands    (PointOpacity, 1 byte)
 //
 // Geometry is instanced (DESIGN.md, Wand & Straßer §6 "hierarchical instantiation"): the file
 // holds objects ('OBJS', HierarchyObject), each a tree of nodes in its own space. A mesh object
@@ -164,6 +165,15 @@ struct PointEmission {
 };
 static_assert(sizeof(PointEmission) == 6);
 
+/// The share of the surface a point stands for that a cut-out leaves standing (its opacity
+/// averaged over the point's prefilter, Material::opacity_texture). Kept apart from the
+/// coverage, which stays the surface's whole area: the cone tracer saturates coverage to fill
+/// a surface's interior, and then lets through what the opacity does not stop.
+struct PointOpacity {
+    std::uint8_t opacity;  ///< encode_unit8.
+};
+static_assert(sizeof(PointOpacity) == 1);
+
 /// Where a stored point's surface lies, in its node's space: the voxel centre moved along the
 /// decoded normal by the decoded offset (PointOffset), what a tracer intersects; here from the
 /// decoded voxel centre, voxel side and normal.
@@ -195,6 +205,7 @@ struct HierarchyView {
     std::span<const PointMirror> mirror;          ///< May be empty.
     std::span<const PointRefraction> refraction;  ///< May be empty.
     std::span<const PointEmission> emission;      ///< May be empty.
+    std::span<const PointOpacity> opacity;        ///< May be empty.
     std::span<const std::uint32_t> node_triangles;
     std::span<const std::array<float, 3>> vertex_positions;
     std::span<const NormalCode> vertex_normals;
@@ -218,6 +229,7 @@ struct HierarchyData {
     std::vector<PointMirror> mirror;
     std::vector<PointRefraction> refraction;
     std::vector<PointEmission> emission;
+    std::vector<PointOpacity> opacity;
     std::vector<std::uint32_t> node_triangles;
     std::vector<std::array<float, 3>> vertex_positions;
     std::vector<NormalCode> vertex_normals;
@@ -228,10 +240,10 @@ struct HierarchyData {
     std::string build_json = "{}";  ///< Build parameters.
 
     HierarchyView view() const {
-        return {grid,       world_object, objects,           instances,        nodes,
-                core,       offset,       diffuse,           specular,         mirror,
-                refraction, emission,     node_triangles,    vertex_positions, vertex_normals,
-                vertex_uvs, triangles,    triangle_materials};
+        return {grid,           world_object, objects,   instances,         nodes,
+                core,           offset,       diffuse,   specular,          mirror,
+                refraction,     emission,     opacity,   node_triangles,    vertex_positions,
+                vertex_normals, vertex_uvs,   triangles, triangle_materials};
     }
 };
 
@@ -261,6 +273,7 @@ class HierarchyFile {
     std::span<const PointMirror> mirror() const { return m_view.mirror; }
     std::span<const PointRefraction> refraction() const { return m_view.refraction; }
     std::span<const PointEmission> emission() const { return m_view.emission; }
+    std::span<const PointOpacity> opacity() const { return m_view.opacity; }
     std::span<const std::uint32_t> node_triangles() const { return m_view.node_triangles; }
     std::span<const std::array<float, 3>> vertex_positions() const {
         return m_view.vertex_positions;

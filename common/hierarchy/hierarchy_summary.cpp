@@ -34,6 +34,9 @@ std::string hierarchy_summary(const HierarchyFile& file, const std::string& inde
     if (!file.emission().empty()) {
         out += " emission";
     }
+    if (!file.opacity().empty()) {
+        out += " opacity";
+    }
     if (!file.vertex_uvs().empty()) {
         out += " uv";
     }

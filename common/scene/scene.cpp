@@ -228,7 +228,10 @@ std::ostream& operator<<(std::ostream& os, const Material& m) {
         "transparency={}, ior={}, roughness={}, texture={}",
         m.name, format_rgb(m.diffuse), format_rgb(m.specular), m.phong_exponent, m.reflectivity,
         m.transparency, m.ior, m.roughness, m.texture);
-    if (m.texture >= 0) {
+    if (m.cut_out()) {
+        os << fmt::format(", opacity_texture={}", m.opacity_texture);
+    }
+    if (m.texture >= 0 || m.cut_out()) {
         const auto& t = m.uv_transform.matrix();
         os << fmt::format(", uv_transform=[[{}, {}, {}], [{}, {}, {}]]", t(0, 0), t(0, 1), t(0, 2),
                           t(1, 0), t(1, 1), t(1, 2));

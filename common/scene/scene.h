@@ -52,10 +52,20 @@ struct EllipticalAreaLight {
     float area() const { return kPi * semi_axis_u.cross(semi_axis_v).norm(); }
 };
 
+/// What a texture's texels are read as.
+enum class TextureChannel : std::uint8_t {
+    /// Grey or RGB (one or two channels are grey, three or more RGB; alpha is ignored).
+    Colour,
+    /// One value, the opacity of a cut-out (an OBJ's map_d): the image's alpha channel where it
+    /// has one, else its first channel (a grey mask). Never linearised.
+    Opacity,
+};
+
 /// An image texture, referred to by materials.
 struct Texture {
     std::filesystem::path path;  ///< Resolved absolute path of the image file.
     bool srgb = true;  ///< Linearise with the sRGB curve when loaded (8-bit colour images).
+    TextureChannel channel = TextureChannel::Colour;
 };
 
 /// Phong-style material of the paper's scenes, plus reflection, refraction and roughness.
@@ -73,10 +83,16 @@ struct Material {
     Rgb emission{0.0f, 0.0f, 0.0f};
     int texture = -1;                              ///< Index into Scene::textures, or −1.
     Affine2f uv_transform = Affine2f::Identity();  ///< Applied to mesh UVs before lookup.
+    /// Index into Scene::textures of the cut-out's opacity (TextureChannel::Opacity), or −1:
+    /// where it is below ½ the surface is absent for whitted and distributed; the cone tracer
+    /// and the points weigh the surface by it, filtered over their footprints. It is looked up
+    /// through the same uv transform as the colour texture.
+    int opacity_texture = -1;
 
     bool reflects() const { return reflectivity > 0.0f; }
     bool emits() const { return (emission > 0.0f).any(); }
     bool refracts() const { return transparency > 0.0f; }
+    bool cut_out() const { return opacity_texture >= 0; }
 };
 
 /// One child of a group: a mesh or another group, placed by a transform.

@@ -19,8 +19,7 @@ bool refracts(int illum) {
 }  // namespace
 
 Material material_from_mtl(const MtlMaterial& mtl, const std::filesystem::path& library,
-                           std::string name,
-                           const std::function<int(const std::filesystem::path&)>& texture,
+                           std::string name, const MtlTextureIndex& texture,
                            const MtlWarning& warn) {
     Material m;
     m.name = std::move(name);
@@ -47,17 +46,29 @@ Material material_from_mtl(const MtlMaterial& mtl, const std::filesystem::path& 
         m.ior = 1.0f;
     }
     m.transparency = std::min(m.transparency, 1.0f - m.reflectivity);
+    const auto uv_transform = [](const MtlTextureMap& map) {
+        Affine2f transform = Affine2f::Identity();
+        transform.translate(map.offset);
+        transform.scale(map.scale);
+        return transform;
+    };
     if (mtl.diffuse_map) {
-        m.texture = texture(mtl.diffuse_map->file);
-        m.uv_transform = Affine2f::Identity();
-        m.uv_transform.translate(mtl.diffuse_map->offset);
-        m.uv_transform.scale(mtl.diffuse_map->scale);
+        m.texture = texture(mtl.diffuse_map->file, TextureChannel::Colour);
+        m.uv_transform = uv_transform(*mtl.diffuse_map);
     }
-    if (mtl.alpha_map && warn) {
-        warn(
-            fmt::format("{}: line {}: 'map_d' cut-outs are not rendered yet; material '{}' is "
-                        "drawn opaque",
-                        library.string(), mtl.alpha_map->line, mtl.name));
+    if (mtl.alpha_map) {
+        m.opacity_texture = texture(mtl.alpha_map->file, TextureChannel::Opacity);
+        // One uv transform serves both maps: the colour's, when there is one.
+        if (!mtl.diffuse_map) {
+            m.uv_transform = uv_transform(*mtl.alpha_map);
+        } else if ((mtl.alpha_map->scale != mtl.diffuse_map->scale ||
+                    mtl.alpha_map->offset != mtl.diffuse_map->offset) &&
+                   warn) {
+            warn(fmt::format(
+                "{}: line {}: 'map_d' of material '{}' has other -s/-o options than "
+                "its 'map_Kd' (line {}); the cut-out is placed as the colour is",
+                library.string(), mtl.alpha_map->line, mtl.name, mtl.diffuse_map->line));
+        }
     }
     return m;
 }

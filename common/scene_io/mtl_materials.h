@@ -11,12 +11,14 @@
 
 namespace mrt {
 
-/// The Material named `name` that `mtl` stands for. `texture(file)` returns the index in
-/// Scene::textures of an 8-bit-sRGB colour texture, adding it when new. `warn` receives what the
-/// mapping cannot render (a `map_d` cut-out), naming the library and line.
+/// The index in Scene::textures of `file` read as `channel` (colour: 8-bit sRGB), added when new.
+using MtlTextureIndex = std::function<int(const std::filesystem::path& file, TextureChannel)>;
+
+/// The Material named `name` that `mtl` stands for, its textures numbered by `texture`. `warn`
+/// receives what the mapping changes (a cut-out whose uv options differ from the colour's),
+/// naming the library and line.
 Material material_from_mtl(const MtlMaterial& mtl, const std::filesystem::path& library,
-                           std::string name,
-                           const std::function<int(const std::filesystem::path&)>& texture,
+                           std::string name, const MtlTextureIndex& texture,
                            const MtlWarning& warn = {});
 
 }  // namespace mrt

@@ -471,8 +471,8 @@ class SceneBuilder {
 
     Material read_material(const std::string& name, const JsonValue& value) {
         const JsonObject object(
-            value, {"diffuse", "emission", "ior", "phong_exponent", "reflectivity", "roughness",
-                    "specular", "texture", "transparency"});
+            value, {"diffuse", "emission", "ior", "opacity_texture", "phong_exponent",
+                    "reflectivity", "roughness", "specular", "texture", "transparency"});
         Material m;
         m.name = name;
         if (const auto diffuse = object.optional("diffuse")) {
@@ -506,8 +506,12 @@ class SceneBuilder {
         if (const auto roughness = object.optional("roughness")) {
             m.roughness = roughness->number(NumberRange::at_least(0.0));
         }
-        if (const auto texture = object.optional("texture")) {
+        const auto texture = object.optional("texture");
+        if (texture) {
             read_texture(*texture, m);
+        }
+        if (const auto opacity = object.optional("opacity_texture")) {
+            read_opacity_texture(*opacity, m, texture.has_value());
         }
         return m;
     }
@@ -520,16 +524,30 @@ class SceneBuilder {
         const bool srgb = srgb_value ? srgb_value->boolean() : true;
         material.uv_transform = read_uv_transform(object);
 
-        material.texture = texture_index(path, srgb);
+        material.texture = texture_index(path, srgb, TextureChannel::Colour);
     }
 
-    /// Textures are numbered in order of first use, one per (file, srgb).
-    int texture_index(const std::filesystem::path& path, bool srgb) {
-        const auto key = std::pair{path.string(), srgb};
+    /// A cut-out's opacity. It shares the colour texture's uv transform, so only a material
+    /// without one may give the transform here.
+    void read_opacity_texture(const JsonValue& value, Material& material, bool coloured) {
+        const JsonObject object(
+            value, coloured ? std::vector<std::string>{"file"}
+                            : std::vector<std::string>{"file", "uv_matrix", "uv_offset",
+                                                       "uv_rotate", "uv_scale"});
+        const std::filesystem::path path = resolve(object.required("file"));
+        if (!coloured) {
+            material.uv_transform = read_uv_transform(object);
+        }
+        material.opacity_texture = texture_index(path, false, TextureChannel::Opacity);
+    }
+
+    /// Textures are numbered in order of first use, one per (file, srgb, channel).
+    int texture_index(const std::filesystem::path& path, bool srgb, TextureChannel channel) {
+        const auto key = std::tuple{path.string(), srgb, channel};
         auto it = m_texture_index.find(key);
         if (it == m_texture_index.end()) {
             it = m_texture_index.emplace(key, static_cast<int>(m_scene.textures.size())).first;
-            m_scene.textures.push_back(Texture{path, srgb});
+            m_scene.textures.push_back(Texture{path, srgb, channel});
         }
         return it->second;
     }
@@ -987,8 +1005,8 @@ class SceneBuilder {
         if (const auto it = m_mtl_materials.find(key); it != m_mtl_materials.end()) {
             return it->second;
         }
-        const auto texture = [this](const std::filesystem::path& path) {
-            return texture_index(path, true);
+        const auto texture = [this](const std::filesystem::path& path, TextureChannel channel) {
+            return texture_index(path, channel == TextureChannel::Colour, channel);
         };
         const std::string name =
             unique_material_name(library.file.filename().string() + ":" + mtl.name);
@@ -1030,7 +1048,7 @@ class SceneBuilder {
     WorldFrame m_frame;  ///< File world space → the scene's (camera-relative when far).
     std::map<std::string, std::uint32_t> m_material_index;
     std::map<std::string, std::uint32_t> m_group_index;
-    std::map<std::pair<std::string, bool>, int> m_texture_index;
+    std::map<std::tuple<std::string, bool, TextureChannel>, int> m_texture_index;
     std::map<std::tuple<std::string, std::optional<std::uint32_t>, double>, std::uint32_t>
         m_file_meshes;
     /// Material libraries read, by path, and the scene material of each (library, name) used.

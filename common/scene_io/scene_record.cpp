@@ -15,6 +15,7 @@
 #include <numbers>
 #include <set>
 #include <string_view>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -30,7 +31,7 @@ static_assert(sizeof(PointLight) == 24, "write the new PointLight field to the s
 static_assert(sizeof(EllipticalAreaLight) == 52,
               "write the new EllipticalAreaLight field to the scene record");
 static_assert(sizeof(Texture) == 48, "write the new Texture field to the scene record");
-static_assert(sizeof(Material) == 128, "write the new Material field to the scene record");
+static_assert(sizeof(Material) == 136, "write the new Material field to the scene record");
 // Scene::mesh_lights is not written: every loader derives it from the geometry's emissive faces.
 static_assert(sizeof(Scene) == 328, "write the new Scene field to the scene record");
 
@@ -179,6 +180,9 @@ class RecordWriter {
             if (m.texture >= 0) {
                 material["texture"] = texture(m, pointer + "/texture");
             }
+            if (m.cut_out()) {
+                material["opacity_texture"] = opacity_texture(m, pointer + "/opacity_texture");
+            }
             out[m.name] = std::move(material);
         }
         return out;
@@ -186,54 +190,69 @@ class RecordWriter {
 
     Json texture(const Material& m, const std::string& pointer) const {
         const Texture& t = m_scene.textures[static_cast<std::size_t>(m.texture)];
-        const Mat2f linear = m.uv_transform.linear();
-        const Vec2f offset = m.uv_transform.translation();
-        const std::string matrix = pointer + "/uv_matrix";
         Json out = Json::object();
         out["file"] = t.path.string();
         out["srgb"] = t.srgb;
-        out["uv_matrix"] = Json::array(
-            {number(linear(0, 0), matrix + "/0"), number(linear(0, 1), matrix + "/1"),
-             number(offset(0), matrix + "/2"), number(linear(1, 0), matrix + "/3"),
-             number(linear(1, 1), matrix + "/4"), number(offset(1), matrix + "/5"), 0.0, 0.0, 1.0});
+        out["uv_matrix"] = uv_matrix(m, pointer + "/uv_matrix");
         return out;
     }
 
+    /// The loader reads the uv transform from the opacity texture only without a colour one.
+    Json opacity_texture(const Material& m, const std::string& pointer) const {
+        Json out = Json::object();
+        out["file"] = m_scene.textures[static_cast<std::size_t>(m.opacity_texture)].path.string();
+        if (m.texture < 0) {
+            out["uv_matrix"] = uv_matrix(m, pointer + "/uv_matrix");
+        }
+        return out;
+    }
+
+    Json uv_matrix(const Material& m, const std::string& matrix) const {
+        const Mat2f linear = m.uv_transform.linear();
+        const Vec2f offset = m.uv_transform.translation();
+        return Json::array(
+            {number(linear(0, 0), matrix + "/0"), number(linear(0, 1), matrix + "/1"),
+             number(offset(0), matrix + "/2"), number(linear(1, 0), matrix + "/3"),
+             number(linear(1, 1), matrix + "/4"), number(offset(1), matrix + "/5"), 0.0, 0.0, 1.0});
+    }
+
     // Textures live inside materials in a scene file, so the loader rebuilds Scene::textures
-    // from them: one entry per (path, srgb), numbered in order of first use. Any other table
-    // would come back renumbered (or without its unused entries).
+    // from them: one entry per (path, srgb, channel), numbered in order of first use (a
+    // material's colour texture before its opacity). Any other table would come back
+    // renumbered (or without its unused entries).
     void check_textures() const {
-        std::set<std::pair<std::string, bool>> distinct;
+        std::set<std::tuple<std::string, bool, TextureChannel>> distinct;
         for (std::size_t i = 0; i < m_scene.textures.size(); ++i) {
             const Texture& t = m_scene.textures[i];
             const std::string where = fmt::format("texture {} \"{}\"", i, t.path.string());
             if (!t.path.is_absolute() || t.path != t.path.lexically_normal()) {
                 fail("", where + ": expected an absolute, normal path (as the loader resolves)");
             }
-            if (!distinct.emplace(t.path.string(), t.srgb).second) {
-                fail("", where + ": a second texture of this path and srgb flag, expected one");
+            if (t.channel != TextureChannel::Colour && t.channel != TextureChannel::Opacity) {
+                fail("", where + ": an unknown channel, expected colour or opacity");
+            }
+            if (t.channel == TextureChannel::Opacity && t.srgb) {
+                fail("", where + ": an sRGB opacity, expected opacities read as stored");
+            }
+            if (!distinct.emplace(t.path.string(), t.srgb, t.channel).second) {
+                fail("", where +
+                             ": a second texture of this path, srgb flag and channel, "
+                             "expected one");
             }
         }
         std::vector<bool> used(m_scene.textures.size(), false);
         std::size_t first_uses = 0;
-        for (const Material& m : m_scene.materials) {
-            const std::string pointer = "/materials/" + pointer_token(m.name) + "/texture";
-            if (m.texture < 0) {
-                if (m.texture != -1) {
-                    fail(pointer, fmt::format("found texture index {}, expected -1 or an index "
-                                              "into the {} textures",
-                                              m.texture, m_scene.textures.size()));
-                }
-                if (m.uv_transform.matrix() != Mat3f::Identity()) {
-                    fail(pointer, "found a uv transform without a texture, expected the identity");
-                }
-                continue;
-            }
-            const auto index = static_cast<std::size_t>(m.texture);
-            if (index >= m_scene.textures.size()) {
+        const auto use = [&](int texture, TextureChannel channel, const std::string& pointer) {
+            const auto index = static_cast<std::size_t>(texture);
+            if (texture < 0 || index >= m_scene.textures.size()) {
                 fail(pointer, fmt::format("found texture index {}, expected -1 or an index into "
                                           "the {} textures",
-                                          m.texture, m_scene.textures.size()));
+                                          texture, m_scene.textures.size()));
+            }
+            if (m_scene.textures[index].channel != channel) {
+                fail(pointer, fmt::format("texture {} is read as {}, expected {}", index,
+                                          channel_name(m_scene.textures[index].channel),
+                                          channel_name(channel)));
             }
             if (!used[index]) {
                 if (index != first_uses) {
@@ -244,11 +263,29 @@ class RecordWriter {
                 used[index] = true;
                 ++first_uses;
             }
+        };
+        for (const Material& m : m_scene.materials) {
+            const std::string pointer = "/materials/" + pointer_token(m.name);
+            if (m.texture != -1) {
+                use(m.texture, TextureChannel::Colour, pointer + "/texture");
+            }
+            if (m.opacity_texture != -1) {
+                use(m.opacity_texture, TextureChannel::Opacity, pointer + "/opacity_texture");
+            }
+            if (m.texture == -1 && m.opacity_texture == -1 &&
+                m.uv_transform.matrix() != Mat3f::Identity()) {
+                fail(pointer + "/texture",
+                     "found a uv transform without a texture, expected the identity");
+            }
         }
         if (first_uses != m_scene.textures.size()) {
             fail("", fmt::format("texture {} is used by no material, expected every texture used",
                                  first_uses));
         }
+    }
+
+    static const char* channel_name(TextureChannel channel) {
+        return channel == TextureChannel::Opacity ? "an opacity" : "a colour";
     }
 
     Json lights() const {

@@ -24,9 +24,9 @@ namespace mrt {
 /// "groups". Throws mrt::Error when the scene holds something a scene file cannot say exactly: a
 /// non-finite number, two materials of one name, a texture path that is not absolute and normal,
 /// texture entries that are not those the loader would build from the materials (each referred
-/// to, unique by path and srgb, numbered in order of first use), or a uv transform on a material
-/// without a texture. Values the loader rejects (a resolution of 0, say) are left to it. The one
-/// value that comes back changed is a focal_distance of 0, which cameras take to mean the
+/// to, unique by path, srgb and channel, numbered in order of first use), or a uv transform on a
+/// material without a texture. Values the loader rejects (a resolution of 0, say) are left to it.
+/// The one value that comes back changed is a focal_distance of 0, which cameras take to mean the
 /// distance to look_at: it comes back as that distance (computed by the loader, in double).
 std::string scene_record_json(const Scene& scene);
 

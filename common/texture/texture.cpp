@@ -96,6 +96,17 @@ int colour_channels(int file_channels) {
     return file_channels >= 3 ? 3 : 1;
 }
 
+/// The channel an opacity texture reads: alpha where the file has it, else the first.
+int opacity_channel(const OIIO::ImageSpec& spec) {
+    if (spec.alpha_channel >= 0 && spec.alpha_channel < spec.nchannels) {
+        return spec.alpha_channel;
+    }
+    if (spec.nchannels == 2) {
+        return 1;
+    }
+    return spec.nchannels >= 4 ? 3 : 0;
+}
+
 /// Pixel type of the mip-map (a TIFF file, which stores half and float): 8-bit and half
 /// values become half floats, finer than 8 bits at every brightness, which linearised 8-bit
 /// values need in the dark; everything else becomes float.
@@ -131,17 +142,19 @@ fs::path prepare_mipmap(const Texture& texture, const fs::path& output, const Bu
                  saturating_mul(static_cast<std::uint64_t>(spec.width),
                                 static_cast<std::uint64_t>(spec.height)),
                  fmt::format("pixels (a {}×{} texture)", spec.width, spec.height), file, "");
+    const bool opacity = texture.channel == TextureChannel::Opacity;
     const bool mipmapped = spec.tile_width > 0 && in->seek_subimage(0, 1);
-    if (mipmapped && !texture.srgb) {
+    if (mipmapped && !texture.srgb && (!opacity || spec.nchannels == 1)) {
         return file;
     }
 
-    const int channels = colour_channels(spec.nchannels);
+    const int first = opacity ? opacity_channel(spec) : 0;
+    const int channels = opacity ? 1 : colour_channels(spec.nchannels);
     const std::size_t count = static_cast<std::size_t>(spec.width) *
                               static_cast<std::size_t>(spec.height) *
                               static_cast<std::size_t>(channels);
     std::vector<float> pixels(count);
-    if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data())) {
+    if (!in->read_image(0, 0, first, first + channels, OIIO::TypeDesc::FLOAT, pixels.data())) {
         throw Error(file, "", "cannot read texture: " + one_line(in->geterror()));
     }
     in->close();
@@ -319,7 +332,8 @@ TextureSampler::TextureSampler(const Scene& scene, TextureFilter filter, const B
         }
         library_messages.pass_through();
         m_impl->handles.push_back(handle);
-        m_impl->channels.push_back(colour_channels(spec->nchannels));
+        m_impl->channels.push_back(
+            texture.channel == TextureChannel::Opacity ? 1 : colour_channels(spec->nchannels));
     }
 }
 

@@ -19,7 +19,10 @@
 // mip-mapped and needs no linearisation (a `maketx` .tx, a mip-mapped .exr) is used in place.
 // Conversion costs one to two seconds per 2048² texture (two cores), once, in the constructor.
 //
-// Channels: one or two (grey, grey + alpha) are grey; three or more are RGB, extras ignored.
+// Channels: a colour texture of one or two channels (grey, grey + alpha) is grey, of three or
+// more RGB, extras ignored. An opacity texture (TextureChannel::Opacity) keeps one channel: the
+// file's alpha where it has one (OpenImageIO's alpha channel, else the second of two or the
+// fourth of four or more), else its first; it is never linearised.
 
 #include "common/math/math.h"
 #include "common/scene/scene.h"
@@ -129,6 +132,26 @@ class TextureSampler {
         const auto linear = material.uv_transform.linear();
         const UvFootprint mapped{linear * footprint.duv_dx, linear * footprint.duv_dy};
         return material.diffuse * lookup(material.texture, material.uv_transform * uv, mapped);
+    }
+
+    /// Opacity of `material`'s cut-out at mesh coordinates `uv`: 1 without one, else its
+    /// opacity texture there, unfiltered (as lookup(index, uv)).
+    float opacity(const Material& material, const Vec2f& uv) const {
+        if (!material.cut_out()) {
+            return 1.0f;
+        }
+        return lookup(material.opacity_texture, material.uv_transform * uv).x();
+    }
+
+    /// The same filtered over `footprint` (mesh uv space), as diffuse(material, uv, footprint):
+    /// the share of the footprint the cut-out leaves standing.
+    float opacity(const Material& material, const Vec2f& uv, const UvFootprint& footprint) const {
+        if (!material.cut_out()) {
+            return 1.0f;
+        }
+        const auto linear = material.uv_transform.linear();
+        const UvFootprint mapped{linear * footprint.duv_dx, linear * footprint.duv_dy};
+        return lookup(material.opacity_texture, material.uv_transform * uv, mapped).x();
     }
 
   private:

@@ -63,6 +63,9 @@ struct OctreePoint {
     float roughness = 0.0f;
     float ior = 1.0f;
     Rgb emission = Rgb::Zero();  ///< Radiance emitted from the front (Material::emission).
+    /// The share of the area it stands for that a cut-out leaves standing (1 for a solid
+    /// surface); its colour and emission are averaged over what stands.
+    float opacity = 1.0f;
     /// Where the surface lies from the voxel centre along `normal`, in voxel sides: the
     /// prefilter-weighted mean of the samples' (position − centre)·normal. A tracer places the
     /// point at centre + offset·side/k·normal, on the surface instead of up to √3/2 voxels off

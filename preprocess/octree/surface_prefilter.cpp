@@ -85,6 +85,8 @@ void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
                            static_cast<double>(std::max<std::size_t>(out.size(), 1)));
     const Material& material = materials[mesh.materials[t]];
     const bool textured = textures != nullptr && material.texture >= 0 && mesh.has_uvs();
+    // A cut-out's samples keep their area and carry its opacity (SurfaceSample::opacity).
+    const bool cut = textures != nullptr && material.cut_out() && mesh.has_uvs();
     const double log_phong = std::log(std::max(material.phong_exponent, 1e-3f));
     for (std::size_t j = 0; j < out.size(); ++j) {
         const Vec2f b = triangle_sample(static_cast<std::uint32_t>(j), key, scheme);
@@ -93,13 +95,11 @@ void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
         s.position = b0 * p[0] + b.x() * p[1] + b.y() * p[2];
         const Vec3f n3 = b0 * n[0] + b.x() * n[1] + b.y() * n[2];
         s.normal = n3.squaredNorm() > 0.0f ? n3.normalized() : Vec3f::UnitZ();
-        if (textured) {
-            const Vec2f uv =
-                b0 * mesh.uvs[tri[0]] + b.x() * mesh.uvs[tri[1]] + b.y() * mesh.uvs[tri[2]];
-            s.diffuse = textures->diffuse(material, uv);
-        } else {
-            s.diffuse = material.diffuse;
-        }
+        const Vec2f uv =
+            textured || cut
+                ? Vec2f(b0 * mesh.uvs[tri[0]] + b.x() * mesh.uvs[tri[1]] + b.y() * mesh.uvs[tri[2]])
+                : Vec2f::Zero();
+        s.diffuse = textured ? textures->diffuse(material, uv) : material.diffuse;
         s.specular = material.specular;
         s.log_phong = log_phong;
         s.reflectivity = material.reflectivity;
@@ -107,6 +107,7 @@ void triangle_samples(const Mesh& mesh, const std::vector<Material>& materials,
         s.roughness = material.roughness;
         s.ior = material.ior;
         s.emission = material.emission;
+        s.opacity = cut ? std::clamp(textures->opacity(material, uv), 0.0f, 1.0f) : 1.0f;
         s.area = share;
     }
 }
@@ -182,6 +183,12 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         double area_share = 0.0;
         Eigen::Vector3d diffuse = Eigen::Vector3d::Zero(), specular = Eigen::Vector3d::Zero();
         Eigen::Vector3d emission = Eigen::Vector3d::Zero();
+        // Colour and emission of what stands: weighed by opacity too (a cut-out's holes are
+        // often black in its colour texture), unless nothing under the Gaussian stands.
+        Eigen::Vector3d standing_diffuse = Eigen::Vector3d::Zero();
+        Eigen::Vector3d standing_emission = Eigen::Vector3d::Zero();
+        double standing = 0.0;
+        bool cut = false;
         Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
         double log_phong = 0.0, reflectivity = 0.0, transparency = 0.0, roughness = 0.0, ior = 0.0;
         std::vector<NormalSample> neighbours;
@@ -210,6 +217,17 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
                 roughness += w * s.roughness;
                 ior += w * s.ior;
                 emission += w * s.emission.matrix().cast<double>();
+                if (s.opacity < 1.0f) {
+                    cut = true;
+                    const double ws = w * s.opacity;
+                    standing += ws;
+                    standing_diffuse += ws * s.diffuse.matrix().cast<double>();
+                    standing_emission += ws * s.emission.matrix().cast<double>();
+                } else {
+                    standing += w;
+                    standing_diffuse += w * s.diffuse.matrix().cast<double>();
+                    standing_emission += w * s.emission.matrix().cast<double>();
+                }
             }
         });
         if (!(weight_sum > 0.0)) {
@@ -233,6 +251,11 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
         point.roughness = static_cast<float>(roughness * inv);
         point.ior = static_cast<float>(ior * inv);
         point.emission = (emission * inv).cast<float>().array();
+        point.opacity = cut ? static_cast<float>(std::min(1.0, standing * inv)) : 1.0f;
+        if (cut && standing > 0.0) {
+            point.diffuse = (standing_diffuse / standing).cast<float>().array();
+            point.emission = (standing_emission / standing).cast<float>().array();
+        }
         point.coverage = static_cast<float>(area_share);  // the samples' areas are in voxel faces
         point.normal_length = static_cast<float>(std::min(1.0, normal_sum.norm() * inv));
     });

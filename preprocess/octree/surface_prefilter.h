@@ -33,6 +33,9 @@ struct SurfaceSample {
     float roughness = 0.0f;
     float ior = 1.0f;
     Rgb emission = Rgb::Zero();
+    /// A cut-out's opacity at the sample (1 for a solid surface): the area stands whole, and
+    /// the points average colours over what stands (OctreePoint::opacity).
+    float opacity = 1.0f;
     /// Surface area the sample stands for, in voxel faces ((side/k)²) of the node gathering it:
     /// dimensionless, so that neither a node of side 1e30 nor one of 1e-30 over- or underflows.
     float area = 0.0f;

@@ -91,6 +91,17 @@ inline void paste(Image& frame, const Image& part, const PixelWindow& window) {
     }
 }
 
+/// The mean colour of an image's pixels.
+inline Rgb mean_of(const Image& image) {
+    Rgb sum = Rgb::Zero();
+    for (int y = 0; y < image.height(); ++y) {
+        for (int x = 0; x < image.width(); ++x) {
+            sum += image.at(x, y);
+        }
+    }
+    return sum / static_cast<float>(image.width() * image.height());
+}
+
 /// Whether two images hold the same floats, bit for bit (not within a tolerance).
 inline bool same_bits(const Image& a, const Image& b) {
     return a.width() == b.width() && a.height() == b.height() &&

@@ -3,6 +3,7 @@
 #include "common/math/invertibility.h"
 #include "common/system/error.h"
 #include "trace/bvh/bvh_build.h"
+#include "trace/bvh/cutouts.h"
 #include "trace/bvh/triangle_intersect.h"
 
 #include <oneapi/tbb/parallel_for.h>
@@ -85,6 +86,7 @@ struct SceneBvh::Impl {
     struct Closest {
         SceneHit* hit;
         float t_best;
+        const SceneCutouts* cutouts;
         bool found = false;
     };
 
@@ -235,12 +237,14 @@ bool SceneBvh::Impl::visit(const InstanceRecord& instance, const Ray& ray, const
     if (instance.kind == Instance::Kind::Group) {
         return traverse<kAnyHit>(instance.index, local, &link, state) && kAnyHit;
     }
+    const MeshCutout* cutout =
+        state.cutouts != nullptr ? state.cutouts->of_mesh(instance.index) : nullptr;
     if constexpr (kAnyHit) {
-        return meshes[instance.index].occluded(local);
+        return meshes[instance.index].occluded(local, cutout);
     } else {
         TriangleHit tri;
         tri.t = state.t_best;  // Index 0: a tie with a hit in another mesh keeps that one.
-        if (meshes[instance.index].intersect(local, tri)) {
+        if (meshes[instance.index].intersect(local, tri, cutout)) {
             state.t_best = tri.t;
             state.found = true;
             SceneHit& hit = *state.hit;
@@ -301,19 +305,19 @@ bool SceneBvh::Impl::traverse(std::uint32_t g, const Ray& ray, const PathLink* p
     }
 }
 
-bool SceneBvh::intersect(const Ray& ray, SceneHit& hit) const {
+bool SceneBvh::intersect(const Ray& ray, SceneHit& hit, const SceneCutouts* cutouts) const {
     if (m_impl->empty) {
         return false;
     }
-    Impl::Closest state{&hit, ray.t_max};
+    Impl::Closest state{&hit, ray.t_max, cutouts};
     return m_impl->traverse<false>(m_impl->root, ray, nullptr, state);
 }
 
-bool SceneBvh::occluded(const Ray& ray) const {
+bool SceneBvh::occluded(const Ray& ray, const SceneCutouts* cutouts) const {
     if (m_impl->empty) {
         return false;
     }
-    Impl::Closest state{nullptr, ray.t_max};
+    Impl::Closest state{nullptr, ray.t_max, cutouts};
     return m_impl->traverse<true>(m_impl->root, ray, nullptr, state);
 }
 

@@ -17,6 +17,8 @@
 
 namespace mrt {
 
+class SceneCutouts;
+
 /// Object → world transform of a hit, compact 3×4.
 using Affine3fCompact = Eigen::Transform<float, 3, Eigen::AffineCompact, Eigen::DontAlign>;
 
@@ -60,10 +62,11 @@ class SceneBvh {
     SceneBvh(SceneBvh&&) noexcept;
     SceneBvh& operator=(SceneBvh&&) noexcept;
 
-    /// Nearest hit with t in (0, ray.t_max); returns false when there is none.
-    bool intersect(const Ray& ray, SceneHit& hit) const;
+    /// Nearest hit with t in (0, ray.t_max); returns false when there is none. With
+    /// `cutouts` (built over the same scene), hits in a cut-out's holes do not count.
+    bool intersect(const Ray& ray, SceneHit& hit, const SceneCutouts* cutouts = nullptr) const;
     /// Whether anything is hit with t in (0, ray.t_max) (any hit, early exit).
-    bool occluded(const Ray& ray) const;
+    bool occluded(const Ray& ray, const SceneCutouts* cutouts = nullptr) const;
 
     /// World-space bounds of the whole scene.
     Eigen::AlignedBox3f bounds() const;

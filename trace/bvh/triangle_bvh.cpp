@@ -1,6 +1,7 @@
 #include "trace/bvh/triangle_bvh.h"
 
 #include "trace/bvh/bvh_build.h"
+#include "trace/bvh/cutouts.h"
 #include "trace/bvh/triangle_intersect.h"
 
 #include <oneapi/tbb/blocked_range.h>
@@ -320,8 +321,8 @@ TriangleBvh::TriangleBvh(const Mesh& mesh) {
     m_nodes.shrink_to_fit();
 }
 
-template <bool kAnyHit>
-bool TriangleBvh::traverse(const Ray& ray, TriangleHit& hit) const {
+template <bool kAnyHit, bool kCutout>
+bool TriangleBvh::traverse(const Ray& ray, TriangleHit& hit, const MeshCutout* cutout) const {
     // A non-finite origin or direction turns every plane distance into NaN (or an empty lane's
     // +inf·0 into NaN), which the slab test reads as "entered": such a ray would visit the
     // unused lanes too. It cannot hit anything meaningful anyway.
@@ -414,6 +415,14 @@ bool TriangleBvh::traverse(const Ray& ray, TriangleHit& hit) const {
                 if constexpr (kAnyHit) {
                     // t == t_max is outside the exclusive interval.
                     lanes &= _mm_movemask_ps(_mm_cmplt_ps(t4, _mm_set1_ps(t_best)));
+                    if constexpr (kCutout) {
+                        for (; lanes != 0; lanes &= lanes - 1) {
+                            const int l = std::countr_zero(static_cast<unsigned>(lanes));
+                            if (cutout->stands(packet->index[l], v[l] / det[l], w[l] / det[l])) {
+                                return true;
+                            }
+                        }
+                    }
                     if (lanes != 0) {
                         return true;
                     }
@@ -423,7 +432,8 @@ bool TriangleBvh::traverse(const Ray& ray, TriangleHit& hit) const {
                     for (; lanes != 0; lanes &= lanes - 1) {
                         const int l = std::countr_zero(static_cast<unsigned>(lanes));
                         const std::uint32_t index = packet->index[l];
-                        if (t[l] < t_best || (t[l] == t_best && index < best_index)) {
+                        if ((t[l] < t_best || (t[l] == t_best && index < best_index)) &&
+                            (!kCutout || cutout->stands(index, v[l] / det[l], w[l] / det[l]))) {
                             t_best = t[l];
                             best_index = index;
                             best_v = v[l];
@@ -457,13 +467,15 @@ bool TriangleBvh::traverse(const Ray& ray, TriangleHit& hit) const {
     }
 }
 
-bool TriangleBvh::intersect(const Ray& ray, TriangleHit& hit) const {
-    return traverse<false>(ray, hit);
+bool TriangleBvh::intersect(const Ray& ray, TriangleHit& hit, const MeshCutout* cutout) const {
+    return cutout != nullptr ? traverse<false, true>(ray, hit, cutout)
+                             : traverse<false, false>(ray, hit, nullptr);
 }
 
-bool TriangleBvh::occluded(const Ray& ray) const {
+bool TriangleBvh::occluded(const Ray& ray, const MeshCutout* cutout) const {
     TriangleHit unused;
-    return traverse<true>(ray, unused);
+    return cutout != nullptr ? traverse<true, true>(ray, unused, cutout)
+                             : traverse<true, false>(ray, unused, nullptr);
 }
 
 Eigen::AlignedBox3f TriangleBvh::bounds() const {

@@ -13,6 +13,8 @@
 
 namespace mrt {
 
+class MeshCutout;
+
 /// 4-wide node: the boxes of up to four children as structure of arrays, so one SSE slab test
 /// checks all four (Dammertz, Hanika & Keller 2008, "Shallow Bounding Volume Hierarchies for
 /// Fast SIMD Ray Tracing of Incoherent Rays"; Ernst & Greiner 2008, "Multi Bounding Volume
@@ -47,9 +49,10 @@ class TriangleBvh {
     /// Updates `hit` if a triangle is hit with t in (0, min(ray.t_max, hit.t)), or at exactly
     /// hit.t (< ray.t_max) by a triangle of lower index than hit.triangle. Rays with a
     /// non-finite origin or direction hit nothing.
-    bool intersect(const Ray& ray, TriangleHit& hit) const;
-    /// Any hit with t in (0, ray.t_max).
-    bool occluded(const Ray& ray) const;
+    /// With a `cutout`, only hits it lets stand count (trace/bvh/cutouts.h).
+    bool intersect(const Ray& ray, TriangleHit& hit, const MeshCutout* cutout = nullptr) const;
+    /// Any hit with t in (0, ray.t_max) (that `cutout` lets stand).
+    bool occluded(const Ray& ray, const MeshCutout* cutout = nullptr) const;
 
     Eigen::AlignedBox3f bounds() const;
     /// Empty for an empty mesh; otherwise nodes()[0] is the root.
@@ -66,8 +69,8 @@ class TriangleBvh {
     };
     static_assert(sizeof(TrianglePacket) == 160);
 
-    template <bool kAnyHit>
-    bool traverse(const Ray& ray, TriangleHit& hit) const;
+    template <bool kAnyHit, bool kCutout>
+    bool traverse(const Ray& ray, TriangleHit& hit, const MeshCutout* cutout) const;
 
     std::vector<BvhNode> m_nodes;           ///< Depth-first; m_nodes[0] is the root.
     std::vector<TrianglePacket> m_packets;  ///< Leaf order.

@@ -88,8 +88,11 @@ template <class A>
 struct Fragment {
     float near = 0.0f;  ///< Front of the depth interval, ray parameter t (world units along d).
     float far = 0.0f;   ///< Back of the depth interval, ray parameter t; near ≤ far.
-    /// Σ w_i of the merged intersections (dimensionless point weights); alpha = min(1, weight).
+    /// Σ w_i of the merged intersections (dimensionless point weights).
     float weight = 0.0f;
+    /// Σ w_i·o_i, o_i the opacity of intersection i (a cut-out's, filtered over the footprint;
+    /// 1 for a solid surface): what of the weight stands.
+    float opaque_weight = 0.0f;
     /// Σ w_i·t_i, ray parameter × weight: the weighted mean depth is weighted_depth / weight.
     float weighted_depth = 0.0f;
     A sums{};  ///< Σ w_i·attributes_i, as accumulated by A::add and A::merge.
@@ -104,8 +107,26 @@ struct Fragment {
 
     /// The weighted mean depth of the intersections, ray parameter t (where to shade).
     float depth() const { return weighted_depth / weight; }
-    /// The fragment's opacity (§4.4): its weight sum, at most one.
-    float alpha() const { return std::min(1.0f, weight); }
+    /// The samples of `samples` (its mask, or that mask with its holes closed) the fragment
+    /// stands on: all of them for a solid surface; for a cut-out, a share of them as large as
+    /// its intersections' weighted mean opacity, spread over the cross-section (opacity_mask).
+    /// The fragment's mean, not each intersection's: overlapping discs of points of different
+    /// opacity would otherwise take the largest where they overlap.
+    CoverageMask standing(CoverageMask samples) const {
+        if (opaque_weight == weight) {
+            return samples;
+        }
+        return samples & opacity_mask(opaque_weight / weight, surface_mask_offset(surface));
+    }
+    /// The fragment's opacity (§4.4): its weight sum, at most one, times the weighted mean
+    /// opacity of its intersections. The weight says how much of the footprint the surface
+    /// covers (saturating, since the points' weights are lifted by κ to cover interiors); a
+    /// cut-out then lets through what its opacity does not stop, which a product of weight and
+    /// opacity would overstate by up to κ.
+    float alpha() const {
+        const float a = std::min(1.0f, weight);
+        return opaque_weight == weight ? a : a * (opaque_weight / weight);
+    }
 };
 
 template <class A>
@@ -269,8 +290,9 @@ class ABuffer {
     template <class Contribution = A, MaskSource Mask = CoverageMask>
     requires requires(A& sums, const Contribution& c, float w) { sums.add(c, w); }
     void insert(float t, float tolerance, float weight, const Contribution& attributes,
-                const Mask& mask = 0, std::uint32_t surface = 0) {
-        if (insert_fragment(t, tolerance, weight, attributes, mask, surface)) {
+                const Mask& mask = 0, std::uint32_t surface = 0, float opacity = 1.0f) {
+        if (insert_fragment(t, tolerance, weight, attributes, mask, surface,
+                            std::clamp(opacity, 0.0f, 1.0f))) {
             m_opaque_known = false;
         }
     }
@@ -341,7 +363,7 @@ class ABuffer {
             CoverageMask taken = 0;
             for (int k = 0; k < m_count && taken != kFullCoverage; ++k) {
                 const FragmentType& f = m_fragments[order[k]];
-                const CoverageMask own = close_holes(f.mask, m_pattern) & ~taken;
+                const CoverageMask own = f.standing(close_holes(f.mask, m_pattern)) & ~taken;
                 if (own == 0) {
                     continue;
                 }
@@ -380,7 +402,7 @@ class ABuffer {
     /// into a fragment that already spans their interval and holds their samples.
     template <class Contribution, class Mask>
     bool insert_fragment(float t, float tolerance, float weight, const Contribution& attributes,
-                         const Mask& mask_source, std::uint32_t surface) {
+                         const Mask& mask_source, std::uint32_t surface, float opacity) {
         MRT_DCHECK(ordered());
         if (!(weight > 0.0f) || !std::isfinite(weight) || !std::isfinite(t) ||
             !std::isfinite(tolerance)) {
@@ -392,7 +414,7 @@ class ABuffer {
         const float lo = t - tolerance;
         const float hi = t + tolerance;
         if (m_compositing == Compositing::Mask) {
-            return insert_surface(t, lo, hi, weight, attributes, mask_source, surface);
+            return insert_surface(t, lo, hi, weight, attributes, mask_source, surface, opacity);
         }
         const CoverageMask mask = samples_beyond(mask_source, 0);
         // The first fragment reaching lo: the fragments before it end before the new interval.
@@ -400,17 +422,18 @@ class ABuffer {
         if (i < m_count && m_fragments[i].near <= hi) {
             ++m_stats.merged;
             FragmentType& f = m_fragments[i];
-            accumulate(f, t, weight, attributes, mask);
+            accumulate(f, t, weight, opacity, attributes, mask);
             f.near = std::min(f.near, lo);
             f.far = std::max(f.far, hi);
             f.surface = merged_surface(f.surface, surface);
             cascade(i);
             return true;
         }
-        if (m_count == Capacity && !make_room(i, lo, hi, t, weight, attributes, mask, surface)) {
+        if (m_count == Capacity &&
+            !make_room(i, lo, hi, t, weight, opacity, attributes, mask, surface)) {
             return true;
         }
-        start_fragment(i, t, lo, hi, weight, attributes, mask, surface);
+        start_fragment(i, t, lo, hi, weight, opacity, attributes, mask, surface);
         return true;
     }
 
@@ -425,10 +448,12 @@ class ABuffer {
                 const CoverageMask mask = m_fragments[i].mask;
                 far = std::max(far, m_fragments[i].far);
                 // Closing holes cannot complete a union that misses more than a sample's
-                // neighbourhood's worth: skip it there (it runs after most insertions).
-                covered |= std::popcount(covered | mask) + kSampleNeighbours >= kCoverageSamples
-                               ? close_holes(mask, m_pattern)
-                               : mask;
+                // neighbourhood's worth: skip it there (it runs after most insertions). A
+                // cut-out's own holes are thinned after its geometry's are closed.
+                covered |= m_fragments[i].standing(
+                    std::popcount(covered | mask) + kSampleNeighbours >= kCoverageSamples
+                        ? close_holes(mask, m_pattern)
+                        : mask);
                 if (covered == kFullCoverage) {
                     return far;
                 }
@@ -483,7 +508,7 @@ class ABuffer {
     /// whatever its surface (its coverage is kept).
     template <class Contribution, class Mask>
     bool insert_surface(float t, float lo, float hi, float weight, const Contribution& attributes,
-                        const Mask& mask_source, std::uint32_t surface) {
+                        const Mask& mask_source, std::uint32_t surface, float opacity) {
         int i = 0;
         while (i < m_count && !(same_surface(m_fragments[i].surface, surface) &&
                                 overlaps(m_fragments[i], lo, hi))) {
@@ -514,11 +539,12 @@ class ABuffer {
                 f.surface = f.surface == kAnySurface ? surface : f.surface;
             }
             const CoverageMask before = f.mask;
-            accumulate(f, t, weight, attributes, samples_beyond(mask_source, before));
+            accumulate(f, t, weight, opacity, attributes, samples_beyond(mask_source, before));
             if (lo >= f.near && hi <= f.far) {
                 // Within the fragment's interval: it reaches no fragment it did not reach
                 // before (none of its surface, by the invariant) and keeps its place.
-                return f.mask != before;
+                // A cut-out's intersection lowers the fragment's opacity, and so its samples.
+                return f.mask != before || opacity < 1.0f;
             }
             f.near = std::min(f.near, lo);
             f.far = std::max(f.far, hi);
@@ -554,21 +580,21 @@ class ABuffer {
         while (slot < m_count && m_fragments[slot].near <= lo) {
             ++slot;
         }
-        start_fragment(slot, t, lo, hi, weight, attributes, samples_beyond(mask_source, 0),
+        start_fragment(slot, t, lo, hi, weight, opacity, attributes, samples_beyond(mask_source, 0),
                        surface);
         return true;
     }
 
     /// A new fragment at index i (size() < Capacity) of the one intersection.
     template <class Contribution>
-    void start_fragment(int i, float t, float lo, float hi, float weight,
+    void start_fragment(int i, float t, float lo, float hi, float weight, float opacity,
                         const Contribution& attributes, CoverageMask mask, std::uint32_t surface) {
         FragmentType& f = open_slot(i);
         f = FragmentType{};
         f.near = lo;
         f.far = hi;
         f.surface = surface;
-        accumulate(f, t, weight, attributes, mask);
+        accumulate(f, t, weight, opacity, attributes, mask);
     }
 
     /// The first two choices of a full buffer (the class comment's overflow policy): drops an
@@ -601,10 +627,11 @@ class ABuffer {
     }
 
     template <class Contribution>
-    static void accumulate(FragmentType& f, float t, float weight, const Contribution& attributes,
-                           CoverageMask mask) {
+    static void accumulate(FragmentType& f, float t, float weight, float opacity,
+                           const Contribution& attributes, CoverageMask mask) {
         f.sums.add(attributes, weight);
         f.weight += weight;
+        f.opaque_weight += opacity == 1.0f ? weight : weight * opacity;
         f.weighted_depth += weight * t;
         f.mask |= mask;
     }
@@ -613,6 +640,7 @@ class ABuffer {
     static void absorb(FragmentType& into, const FragmentType& from) {
         into.sums.merge(from.sums);
         into.weight += from.weight;
+        into.opaque_weight += from.opaque_weight;
         into.weighted_depth += from.weighted_depth;
         into.mask |= from.mask;
         into.near = std::min(into.near, from.near);
@@ -655,7 +683,7 @@ class ABuffer {
     /// for the new fragment at index i (updated); false when the intersection was dropped or
     /// merged.
     template <class Contribution>
-    bool make_room(int& i, float lo, float hi, float t, float weight,
+    bool make_room(int& i, float lo, float hi, float t, float weight, float opacity,
                    const Contribution& attributes, CoverageMask mask, std::uint32_t surface) {
         if (dropped_or_evicted(lo, weight)) {
             // Evicted: lo ≤ opaque < its near, the new fragment lies in front of it, i < m_count.
@@ -689,7 +717,7 @@ class ABuffer {
         }
         // United with a neighbour it stays clear of the other one: no cascade.
         FragmentType& f = gap_front <= gap_back ? m_fragments[i - 1] : m_fragments[i];
-        accumulate(f, t, weight, attributes, mask);
+        accumulate(f, t, weight, opacity, attributes, mask);
         f.near = std::min(f.near, lo);
         f.far = std::max(f.far, hi);
         f.surface = merged_surface(f.surface, surface);

@@ -674,6 +674,10 @@ class Walk {
             0.5f * h * (1.0f + 0.5f * grazing_tangent(along, kPointToleranceTangent));
         const float t = lanes.t[k];
         const Vec3f normal(lanes.nx[k], lanes.ny[k], lanes.nz[k]);
+        // A cut-out's point: its disc and weight are the whole surface's, what stands of it
+        // its opacity (PointOpacity), which the fragment averages (Fragment::standing_mask).
+        const float opacity =
+            m_view.opacity.empty() ? 1.0f : decode_unit8(m_view.opacity[i].opacity);
         const auto mask = [&](CoverageMask held) -> CoverageMask {
             return masks != nullptr ? point_mask(space, Vec2f(lanes.u[k], lanes.v[k]), normal,
                                                  along, coverage, h, held, *masks)
@@ -685,10 +689,10 @@ class Walk {
             m_buffer.insert(
                 t * space.world_per_t, tolerance * space.world_per_t, weight * hit_weight,
                 ConeSurface::Lazy{surface, [&] { return point_shape(space, i, normal, surface); }},
-                mask, space.surface);
+                mask, space.surface, opacity);
         } else {
             m_buffer.insert(t * space.world_per_t, tolerance * space.world_per_t,
-                            weight * hit_weight, {}, mask, space.surface);
+                            weight * hit_weight, {}, mask, space.surface, opacity);
         }
     }
 
@@ -1007,6 +1011,22 @@ class Walk {
             if (!hit || hit->t < l.t_min || hit->t > l.t_max) {
                 return;
             }
+            const Vec3f geometric = winding.normalized();
+            // A cut-out stands for the share of the footprint its opacity, filtered over the
+            // footprint as the colour is, leaves standing.
+            const Material& material =
+                m_geometry.scene().materials[m_view.triangle_materials[triangle]];
+            std::optional<TriangleAtHit> at;
+            float opacity = 1.0f;
+            if (material.cut_out() && !m_view.vertex_uvs.empty()) {
+                at = triangle_at(triangle, p, geometric, *hit);
+                const SurfaceDifferential sd =
+                    footprint_differential(space, *at, m_options.texture_footprint_scale);
+                opacity = m_geometry.textures().opacity(material, at->uv, {sd.duv_dx, sd.duv_dy});
+                if (!(opacity > 0.0f)) {
+                    return;
+                }
+            }
             ++m_stats.triangles_hit;
             // In the Gaussian's units at each vertex's own depth, as the weight was computed:
             // the same sample is the same ray of the cone at every depth.
@@ -1029,22 +1049,24 @@ class Walk {
                 }
                 return range & triangle_mask(y[0], y[1], y[2], m_buffer.sample_pattern());
             };
-            const Vec3f geometric = winding.normalized();
             // The depths a flat surface spans across the footprint.
             const float tolerance =
                 radius * (0.5f + grazing_tangent(geometric.dot(space.ray.direction),
                                                  kTriangleToleranceTangent));
             if constexpr (kShade) {
-                const TriangleAtHit at = triangle_at(triangle, p, geometric, *hit);
-                ConeSurface surface = triangle_surface(space, triangle, at);
+                if (!at) {
+                    at = triangle_at(triangle, p, geometric, *hit);
+                }
+                ConeSurface surface = triangle_surface(space, triangle, *at);
                 add_highlights(surface, hit->t * space.world_per_t);
-                m_buffer.insert(
-                    hit->t * space.world_per_t, tolerance * space.world_per_t, weight * hit->weight,
-                    ConeSurface::Lazy{surface, [&] { return triangle_shape(space, triangle, at); }},
-                    mask, space.surface);
+                m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
+                                weight * hit->weight,
+                                ConeSurface::Lazy{
+                                    surface, [&] { return triangle_shape(space, triangle, *at); }},
+                                mask, space.surface, opacity);
             } else {
                 m_buffer.insert(hit->t * space.world_per_t, tolerance * space.world_per_t,
-                                weight * hit->weight, {}, mask, space.surface);
+                                weight * hit->weight, {}, mask, space.surface, opacity);
             }
         }
     }

@@ -245,4 +245,22 @@ CoverageMask ellipse_mask_scalar(const Vec2f& centre, const Mat2f& form, SampleP
     return pack(inside);
 }
 
+CoverageMask opacity_mask(float opacity, float offset) {
+    if (!(opacity > 0.0f)) {
+        return 0;
+    }
+    if (opacity >= 1.0f) {
+        return kFullCoverage;
+    }
+    constexpr double kGoldenFraction = 0.6180339887498949;
+    CoverageMask mask = 0;
+    for (int i = 0; i < kCoverageSamples; ++i) {
+        const double position = static_cast<double>(i) * kGoldenFraction + offset;
+        if (position - std::floor(position) < static_cast<double>(opacity)) {
+            mask |= CoverageMask{1} << i;
+        }
+    }
+    return mask;
+}
+
 }  // namespace mrt

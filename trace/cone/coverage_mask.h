@@ -81,6 +81,20 @@ CoverageMask edge_mask(const Vec2f& from, const Vec2f& to,
 CoverageMask triangle_mask(const Vec2f& a, const Vec2f& b, const Vec2f& c,
                            SamplePattern pattern = SamplePattern::Gaussian);
 
+/// About round(opacity · 64) samples spread evenly over the cross-section, for a surface that
+/// covers only that share of where it lies (a cut-out's filtered opacity): sample i is kept
+/// where frac(i·φ + offset) < opacity, φ the golden ratio's fractional part, which the spiral's
+/// order (radius growing with i) spreads over every radius. Surfaces of different `offset`
+/// (in [0, 1)) keep different samples, so two half-open ones stacked cover three quarters on
+/// average rather than the same half twice. All for opacity ≥ 1, none for opacity ≤ 0.
+CoverageMask opacity_mask(float opacity, float offset);
+
+/// opacity_mask's offset for a surface (an A-buffer fragment's): different for different
+/// surfaces, the same for every intersection of one (Knuth's multiplicative hash).
+inline float surface_mask_offset(std::uint32_t surface) {
+    return static_cast<float>((surface * 2654435769u) >> 8) * 0x1p-24f;
+}
+
 /// The samples inside the ellipse {y : (y − centre)ᵀ·form·(y − centre) ≤ 1}, `form` symmetric
 /// positive definite (a surfel's disc as the footprint sees it); nothing where it is not finite.
 CoverageMask ellipse_mask(const Vec2f& centre, const Mat2f& form,

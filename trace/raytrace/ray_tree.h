@@ -20,6 +20,7 @@
 #include "common/scene/scene.h"
 #include "common/system/check.h"
 #include "common/texture/texture.h"
+#include "trace/bvh/cutouts.h"
 #include "trace/bvh/scene_bvh.h"
 #include "trace/raytrace/surface_point.h"
 #include "trace/render/area_light.h"
@@ -131,6 +132,7 @@ class RayTree {
         : m_scene(scene),
           m_bvh(bvh),
           m_textures(textures),
+          m_cutouts(scene, textures),
           m_max_depth(max_depth),
           m_always_carry(differentials == Differentials::Always) {}
 
@@ -153,12 +155,16 @@ class RayTree {
     }
 
   private:
+    /// The scene's cut-outs for the BVH's queries, null where it has none.
+    const SceneCutouts* cutouts() const { return m_cutouts.empty() ? nullptr : &m_cutouts; }
+
     Rgb direct_light(const SurfacePoint& sp, const Material& material, const Rgb& albedo,
                      const Vec3f& wo, RayCounters& counters, Sampling& sampling) const;
 
     const Scene& m_scene;
     const SceneBvh& m_bvh;
     const TextureSampler& m_textures;
+    const SceneCutouts m_cutouts;
     int m_max_depth;
     bool m_always_carry;
 };
@@ -177,7 +183,7 @@ Rgb RayTree<Sampling>::direct_light(const SurfacePoint& sp, const Material& mate
         }
         ++counters.shadow;
         const Ray shadow{sp.spawn_origin(light.wi), light.wi, light.distance};
-        if (m_bvh.occluded(shadow)) {
+        if (m_bvh.occluded(shadow, cutouts())) {
             return;
         }
         sum += light.irradiance * cos_shading *
@@ -198,7 +204,8 @@ Rgb RayTree<Sampling>::direct_light(const SurfacePoint& sp, const Material& mate
                 continue;
             }
             ++counters.shadow;
-            if (m_bvh.occluded(Ray{sp.spawn_origin(centre.wi), centre.wi, centre.distance})) {
+            if (m_bvh.occluded(Ray{sp.spawn_origin(centre.wi), centre.wi, centre.distance},
+                               cutouts())) {
                 continue;
             }
             sum += unoccluded;
@@ -219,7 +226,8 @@ Rgb RayTree<Sampling>::direct_light(const SurfacePoint& sp, const Material& mate
                 continue;
             }
             ++counters.shadow;
-            if (m_bvh.occluded(Ray{sp.spawn_origin(sample.wi), sample.wi, sample.distance})) {
+            if (m_bvh.occluded(Ray{sp.spawn_origin(sample.wi), sample.wi, sample.distance},
+                               cutouts())) {
                 continue;
             }
             sum += unoccluded;
@@ -235,7 +243,7 @@ Rgb RayTree<Sampling>::radiance(const Ray& ray, int depth, RayCounters& counters
                                 Sampling& sampling, float weight,
                                 const RayFootprint* footprint) const {
     SceneHit hit;
-    if (!m_bvh.intersect(ray, hit)) {
+    if (!m_bvh.intersect(ray, hit, cutouts())) {
         return m_scene.background;
     }
     const Vec3f d = ray.direction.normalized();

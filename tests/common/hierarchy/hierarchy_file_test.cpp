@@ -84,6 +84,7 @@ HierarchyData small_hierarchy() {
         d.refraction.push_back(
             {static_cast<std::uint8_t>(11 * k), static_cast<std::uint8_t>(13 * k)});
         d.emission.push_back({{static_cast<std::uint16_t>(0x4c40 + k), 0x4a00, 0x0001}});
+        d.opacity.push_back({static_cast<std::uint8_t>(51 * k)});
     }
     d.node_triangles = {1, 0};
     d.vertex_positions = {{0.5f, 0.25f, 0}, {1.5f, 0.25f, 0}, {0.5f, 1.75f, 1}, {-0.0f, 3e-7f, 2}};
@@ -95,13 +96,14 @@ HierarchyData small_hierarchy() {
     return d;
 }
 
-/// The same without specular, mirror, refraction, emission and texture coordinates.
+/// The same without specular, mirror, refraction, emission, opacity and texture coordinates.
 HierarchyData plain_hierarchy() {
     HierarchyData d = small_hierarchy();
     d.specular.clear();
     d.mirror.clear();
     d.refraction.clear();
     d.emission.clear();
+    d.opacity.clear();
     d.vertex_uvs.clear();
     return d;
 }
@@ -148,6 +150,7 @@ void write_raw(const fs::path& path, const HierarchyData& d, const HierarchyHead
     add_raw(w, "PMIR", d.mirror, skip, true);
     add_raw(w, "PTRN", d.refraction, skip, true);
     add_raw(w, "PEMI", d.emission, skip, true);
+    add_raw(w, "POPA", d.opacity, skip, true);
     add_raw(w, "NTRI", d.node_triangles, skip);
     add_raw(w, "VPOS", d.vertex_positions, skip);
     add_raw(w, "VNRM", d.vertex_normals, skip);
@@ -196,6 +199,7 @@ TEST(HierarchyFile, RoundTripsEveryRecordExactly) {
     expect_same_records(f.mirror(), d.mirror, "mirror");
     expect_same_records(f.refraction(), d.refraction, "refraction");
     expect_same_records(f.emission(), d.emission, "emission");
+    expect_same_records(f.opacity(), d.opacity, "opacity");
     expect_same_records(f.node_triangles(), d.node_triangles, "node triangles");
     expect_same_records(f.vertex_positions(), d.vertex_positions, "positions");
     expect_same_records(f.vertex_normals(), d.vertex_normals, "normals");
@@ -238,8 +242,9 @@ TEST(HierarchyFile, LeavesOutUnusedChannels) {
 
     const HierarchyFile full = HierarchyFile::open(dir.path() / "full.mrh");
     const HierarchyFile plain = HierarchyFile::open(dir.path() / "plain.mrh");
-    for (const std::uint32_t tag : {section_tag("PSPC"), section_tag("PMIR"), section_tag("PTRN"),
-                                    section_tag("PEMI"), section_tag("VTUV")}) {
+    for (const std::uint32_t tag :
+         {section_tag("PSPC"), section_tag("PMIR"), section_tag("PTRN"), section_tag("PEMI"),
+          section_tag("POPA"), section_tag("VTUV")}) {
         EXPECT_TRUE(full.sections().has(tag)) << tag_name(tag);
         EXPECT_FALSE(plain.sections().has(tag)) << tag_name(tag);
     }
@@ -248,6 +253,7 @@ TEST(HierarchyFile, LeavesOutUnusedChannels) {
     EXPECT_TRUE(plain.mirror().empty());
     EXPECT_TRUE(plain.refraction().empty());
     EXPECT_TRUE(plain.emission().empty());
+    EXPECT_TRUE(plain.opacity().empty());
     EXPECT_TRUE(plain.vertex_uvs().empty());
     EXPECT_EQ(plain.core().size(), 5u);
     EXPECT_EQ(plain.diffuse().size(), 5u);
@@ -278,6 +284,8 @@ TEST(HierarchyFileWriter, RefusesInconsistentDataAndWritesNothing) {
          "1 records, expected 5"},
         {"emission short", [](HierarchyData& d) { d.emission.resize(2); }, "section 'PEMI'",
          "2 records, expected 5"},
+        {"opacity long", [](HierarchyData& d) { d.opacity.push_back({}); }, "section 'POPA'",
+         "6 records, expected 5 (one per point) or none"},
         {"grid 0", [](HierarchyData& d) { d.grid = 0; }, "section 'HEAD'",
          "grid resolution 0, expected 1 to 256"},
         {"grid 257", [](HierarchyData& d) { d.grid = 257; }, "section 'HEAD'",
@@ -515,7 +523,7 @@ TEST(HierarchyFileReader, RefusesAFileWithoutAChannelTheScenesMaterialsNeed) {
     const fs::path whole = dir.path() / "whole.mrh";
     write_hierarchy_file(whole, d);
     HierarchyChannels all;
-    all.specular = all.mirror = all.refraction = all.emission = true;
+    all.specular = all.mirror = all.refraction = all.emission = all.opacity = true;
     EXPECT_NO_THROW(HierarchyFile::open(whole).check_channels(all));
     const struct {
         const char (&tag)[5];
@@ -532,6 +540,7 @@ TEST(HierarchyFileReader, RefusesAFileWithoutAChannelTheScenesMaterialsNeed) {
          "needs"},
         {"PEMI", &HierarchyChannels::emission,
          "emission channel, which an emitting material needs"},
+        {"POPA", &HierarchyChannels::opacity, "opacity channel, which a cut-out material needs"},
     };
     for (const auto& c : cases) {
         const fs::path path = dir.path() / (std::string("without-") + c.tag + ".mrh");

@@ -316,6 +316,7 @@ Findings walk(const HierarchyFile& h, std::uint32_t materials) {
     per(h.mirror().size(), points, true, "PMIR");
     per(h.refraction().size(), points, true, "PTRN");
     per(h.emission().size(), points, true, "PEMI");
+    per(h.opacity().size(), points, true, "POPA");
     per(h.vertex_normals().size(), vertices, false, "VNRM");
     per(h.vertex_uvs().size(), vertices, true, "VTUV");
     per(h.triangle_materials().size(), triangles.size(), false, "TMAT");
@@ -434,6 +435,9 @@ Findings walk(const HierarchyFile& h, std::uint32_t materials) {
                 }
                 if (!h.emission().empty()) {
                     f.digest += bits_of(h.emission()[p]);
+                }
+                if (!h.opacity().empty()) {
+                    f.digest += bits_of(h.opacity()[p]);
                 }
             }
         }

@@ -109,6 +109,50 @@ TEST(MeshMaterials, EachFaceTakesItsUsemtlMaterialMappedFromTheLibrary) {
     EXPECT_TRUE(it->emission.isApprox(Rgb(4.0f, 3.0f, 2.0f)));
 }
 
+TEST(MeshMaterials, MapDIsTheCutOutsOpacityReadAsStoredThroughTheColoursUvTransform) {
+    const testing::ScratchDirectory dir("mesh_materials_cutout");
+    write_file(dir.path() / "leaf.png", "");
+    write_file(dir.path() / "mask.png", "");
+    write_file(dir.path() / "lib.mtl",
+               "newmtl leaf\nmap_Kd -s 2 2 leaf.png\nmap_d -s 2 2 leaf.png\n"
+               "newmtl stencil\nmap_d -o 0.5 0 mask.png\n"
+               "newmtl skewed\nmap_Kd leaf.png\nmap_d -s 3 3 mask.png\n");
+    write_file(
+        dir.path() / "quads.obj",
+        "mtllib lib.mtl\n" + three_quads("usemtl leaf\n", "usemtl stencil\n", "usemtl skewed\n"));
+    std::vector<std::string> warnings;
+    const Scene scene = load(dir.path(), "", &warnings);
+    const Material& leaf = material_of(scene, 0);
+    ASSERT_TRUE(leaf.cut_out());
+    ASSERT_GE(leaf.texture, 0);
+    const Texture& colour = scene.textures[static_cast<std::size_t>(leaf.texture)];
+    const Texture& opacity = scene.textures[static_cast<std::size_t>(leaf.opacity_texture)];
+    EXPECT_EQ(colour.path, opacity.path) << "one file, read twice";
+    EXPECT_EQ(colour.channel, TextureChannel::Colour);
+    EXPECT_TRUE(colour.srgb);
+    EXPECT_EQ(opacity.channel, TextureChannel::Opacity);
+    EXPECT_FALSE(opacity.srgb) << "an opacity is read as stored";
+    EXPECT_TRUE(leaf.uv_transform.matrix().isApprox(Affine2f(Eigen::Scaling(2.0f, 2.0f)).matrix()));
+    // Without a colour texture the cut-out's own options place it.
+    const Material& stencil = material_of(scene, 2);
+    EXPECT_EQ(stencil.texture, -1);
+    ASSERT_TRUE(stencil.cut_out());
+    EXPECT_TRUE(stencil.uv_transform.translation().isApprox(Vec2f(0.5f, 0.0f)));
+    // Options that differ from the colour's are the colour's, with a warning naming the line.
+    const Material& skewed = material_of(scene, 4);
+    EXPECT_TRUE(skewed.uv_transform.matrix().isIdentity());
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_TRUE(contains(warnings[0],
+                         "lib.mtl: line 8: 'map_d' of material 'skewed' has other "
+                         "-s/-o options than its 'map_Kd' (line 7)"))
+        << warnings[0];
+    // The scene record keeps the cut-outs.
+    const Scene record = load_scene_record(scene_record_json(scene), dir.path() / "x.mrh");
+    for (std::size_t m = 0; m < scene.materials.size(); ++m) {
+        EXPECT_EQ(record.materials[m].opacity_texture, scene.materials[m].opacity_texture);
+    }
+}
+
 TEST(MeshMaterials, FacesWithoutUsemtlTakeTheObjectsMaterialOrTheDefault) {
     const testing::ScratchDirectory dir("mesh_materials");
     write_file(dir.path() / "lib.mtl", "newmtl green\nKd 0 1 0\n");

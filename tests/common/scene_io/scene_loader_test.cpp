@@ -879,7 +879,8 @@ TEST(SceneLoader, ValidatesUnusedGroups) {
 TEST(SceneLoader, EscapesKeysInJsonPointers) {
     EXPECT_EQ(error_of(SceneParts().materials(R"({"a/b~c": {"difuse": 1}})").json()),
               "scene.json: /materials/a~1b~0c/difuse: unknown key (expected one of: diffuse, "
-              "emission, ior, phong_exponent, reflectivity, roughness, specular, texture, "
+              "emission, ior, opacity_texture, phong_exponent, reflectivity, roughness, "
+              "specular, texture, "
               "transparency)");
 }
 

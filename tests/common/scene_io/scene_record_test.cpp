@@ -84,6 +84,7 @@ void expect_same(const Material& original, const Material& record) {
     expect_same(original.roughness, record.roughness, "roughness");
     expect_same(original.emission, record.emission, "emission");
     EXPECT_EQ(original.texture, record.texture);
+    EXPECT_EQ(original.opacity_texture, record.opacity_texture);
     const Eigen::Matrix3f a = original.uv_transform.matrix();
     const Eigen::Matrix3f b = record.uv_transform.matrix();
     for (int row = 0; row < 3; ++row) {
@@ -134,6 +135,7 @@ void expect_same_scene_without_geometry(const Scene& original, const Scene& reco
     for (std::size_t i = 0; i < original.textures.size(); ++i) {
         EXPECT_EQ(original.textures[i].path, record.textures[i].path) << "texture " << i;
         EXPECT_EQ(original.textures[i].srgb, record.textures[i].srgb) << "texture " << i;
+        EXPECT_EQ(original.textures[i].channel, record.textures[i].channel) << "texture " << i;
     }
     EXPECT_TRUE(record.meshes.empty());
     ASSERT_EQ(record.groups.size(), 1u);
@@ -204,7 +206,10 @@ Scene every_field_scene(const TextureFiles& files) {
                                                     Vec3f(0, 0, 0.125f), Rgb(0.2f), false});
 
     scene.textures.push_back(Texture{files.make("wood.png"), true});
+    // The same file as a cut-out's opacity: another texture.
+    scene.textures.push_back(Texture{files.make("wood.png"), false, TextureChannel::Opacity});
     scene.textures.push_back(Texture{files.make("data.png"), false});
+    scene.textures.push_back(Texture{files.make("stencil.png"), false, TextureChannel::Opacity});
 
     Material wood;
     wood.name = "wood";
@@ -214,6 +219,7 @@ Scene every_field_scene(const TextureFiles& files) {
     wood.roughness = 0.05f;
     wood.emission = Rgb(17.0f, 0.1f, 1e-7f);  // a glowing surface, an OBJ `Ke`
     wood.texture = 0;
+    wood.opacity_texture = 1;
     wood.uv_transform = Affine2f::Identity();
     wood.uv_transform.translate(Vec2f(0.5f, -0.25f))
         .rotate(Eigen::Rotation2Df(0.3f))
@@ -232,12 +238,16 @@ Scene every_field_scene(const TextureFiles& files) {
     data.name = "data";
     data.reflectivity = 1.0f;
     data.ior = 0.75f;
-    data.texture = 1;
+    data.texture = 2;
     data.uv_transform = Affine2f(Eigen::Translation2f(1e-3f, 2e30f));
+    Material stencil;  // A cut-out without a colour texture: its uv transform is the opacity's.
+    stencil.name = "stencil";
+    stencil.opacity_texture = 3;
+    stencil.uv_transform = Affine2f(Eigen::Scaling(3.0f, 0.5f));
     Material shared = wood;  // The same texture again, with another transform.
     shared.name = "";
     shared.uv_transform = Affine2f(Eigen::Rotation2Df(-2.0f));
-    scene.materials = {wood, glass, data, shared};
+    scene.materials = {wood, glass, data, stencil, shared};
     return scene;
 }
 
@@ -485,23 +495,30 @@ TEST(SceneRecord, RefusesToWriteWhatASceneFileCannotSayExactly) {
               std::string::npos);
     EXPECT_NE(error_of_writing([](Scene& s, Files) {
                   s.textures[1] = s.textures[0];
-              }).find("a second texture of this path and srgb flag, expected one"),
+              }).find("a second texture of this path, srgb flag and channel, expected one"),
               std::string::npos);
     EXPECT_EQ(error_of_writing([](Scene& s, Files f) {
                   s.textures.push_back(Texture{f.make("unused.png"), true});
               }),
               "hand-made.json: " + cannot +
-                  "texture 2 is used by no material, expected every texture used");
+                  "texture 4 is used by no material, expected every texture used");
     EXPECT_EQ(error_of_writing([](Scene& s, Files) {
-                  s.materials[0].texture = 1;
+                  s.materials[0].texture = 2;
                   s.materials[2].texture = 0;
               }),
               "hand-made.json: /materials/wood/texture: " + cannot +
-                  "texture 1 is used before texture 0, expected textures numbered in order of "
+                  "texture 2 is used before texture 0, expected textures numbered in order of "
                   "first use");
-    EXPECT_EQ(error_of_writing([](Scene& s, Files) { s.materials[0].texture = 2; }),
+    EXPECT_EQ(error_of_writing([](Scene& s, Files) { s.materials[0].texture = 4; }),
               "hand-made.json: /materials/wood/texture: " + cannot +
-                  "found texture index 2, expected -1 or an index into the 2 textures");
+                  "found texture index 4, expected -1 or an index into the 4 textures");
+    EXPECT_EQ(error_of_writing([](Scene& s, Files) { s.materials[0].opacity_texture = 0; }),
+              "hand-made.json: /materials/wood/opacity_texture: " + cannot +
+                  "texture 0 is read as a colour, expected an opacity");
+    EXPECT_NE(error_of_writing([](Scene& s, Files) {
+                  s.textures[1].srgb = true;
+              }).find("an sRGB opacity, expected opacities read as stored"),
+              std::string::npos);
     EXPECT_EQ(error_of_writing([](Scene& s, Files) {
                   s.materials[1].uv_transform = Affine2f(Eigen::Scaling(2.0f, 2.0f));
               }),
@@ -532,6 +549,39 @@ TEST(SceneLoader, UvMatrixIsAnAffineMatrixWrittenRowByRow) {
                     "scene.json");
     const Vec2f uv = scene.materials[0].uv_transform * Vec2f(1.0f, 1.0f);
     EXPECT_EQ(uv, Vec2f(-1.5f, 3.25f));
+}
+
+TEST(SceneLoader, AnOpacityTextureSharesTheColoursUvTransformOrHasItsOwnAlone) {
+    const TextureFiles files;
+    const std::string image = files.make("image.png").string();
+    const auto scene_of = [&](const std::string& material) {
+        return R"({"camera": {"eye": [0, 0, 5], "look_at": [0, 0, 0]}, "objects": [],
+                   "materials": {"m": )" +
+               material + "}}";
+    };
+    const Scene both = parse_scene(
+        scene_of(R"({"texture": {"file": ")" + image +
+                 R"(", "uv_scale": 2}, "opacity_texture": {"file": ")" + image + R"("}})"),
+        "scene.json");
+    ASSERT_EQ(both.textures.size(), 2u) << "one file as colour and as opacity";
+    EXPECT_EQ(both.materials[0].texture, 0);
+    EXPECT_EQ(both.materials[0].opacity_texture, 1);
+    EXPECT_EQ(both.textures[1].channel, TextureChannel::Opacity);
+    EXPECT_FALSE(both.textures[1].srgb);
+    EXPECT_EQ(both.materials[0].uv_transform * Vec2f(1.0f, 1.0f), Vec2f(2.0f, 2.0f));
+    const Scene alone = parse_scene(
+        scene_of(R"({"opacity_texture": {"file": ")" + image + R"(", "uv_offset": [0.5, 0]}})"),
+        "scene.json");
+    EXPECT_EQ(alone.materials[0].texture, -1);
+    EXPECT_EQ(alone.materials[0].uv_transform * Vec2f(0.0f, 0.0f), Vec2f(0.5f, 0.0f));
+    EXPECT_EQ(error_message([&] {
+                  parse_scene(scene_of(R"({"texture": {"file": ")" + image +
+                                       R"("}, "opacity_texture": {"file": ")" + image +
+                                       R"(", "uv_scale": 2}})"),
+                              "scene.json");
+              }),
+              "scene.json: /materials/m/opacity_texture/uv_scale: unknown key (expected one of: "
+              "file)");
 }
 
 TEST(SceneLoader, RefusesUvMatrixThatIsCombinedNotAffineOrSingular) {

@@ -3,6 +3,7 @@
 
 #include "common/texture/texture.h"
 #include "common/image/image.h"
+#include "tests/support/leaf_texture.h"
 #include "tests/support/test_support.h"
 
 #include <fmt/format.h>
@@ -101,6 +102,40 @@ TEST(TextureSampler, MaterialDiffuseIsColourTimesTextureThroughTheUvTransform) {
     EXPECT_NEAR(d[1], 0.2f, 1e-5f);
     EXPECT_NEAR(d[2], 0.4f, 1e-5f);
     fs::remove_all(dir);
+}
+
+TEST(TextureSampler, OpacityIsTheAlphaChannelOrAGreyMaskAsStoredFilteredOverTheFootprint) {
+    const testing::ScratchDirectory scratch("mrt_texture_test_opacity");
+    const double inside = testing::write_leaf_texture(scratch.path() / "leaf.png", 64);
+    // A grey mask of 8-bit 128 (write_image encodes PNGs as sRGB): read as stored, 128/255,
+    // where linearising would give 0.216.
+    Image grey(4, 4);
+    for (int y = 0; y < 4; ++y) {
+        for (int x = 0; x < 4; ++x) {
+            grey.set(x, y, Rgb::Constant(srgb_to_linear(128.0f / 255.0f)));
+        }
+    }
+    write_image(scratch.path() / "grey.png", grey);
+    Scene scene;
+    scene.textures.push_back(Texture{scratch.path() / "leaf.png", false, TextureChannel::Opacity});
+    scene.textures.push_back(Texture{scratch.path() / "grey.png", false, TextureChannel::Opacity});
+    scene.textures.push_back(Texture{scratch.path() / "leaf.png", true, TextureChannel::Colour});
+    const TextureSampler sampler(scene, TextureFilter::Trilinear);
+    Material leaf;
+    leaf.opacity_texture = 0;
+    EXPECT_FLOAT_EQ(sampler.opacity(leaf, Vec2f(0.5f, 0.5f)), 1.0f) << "the leaf's middle";
+    EXPECT_FLOAT_EQ(sampler.opacity(leaf, Vec2f(0.03f, 0.03f)), 0.0f) << "a corner";
+    // A footprint as wide as the texture reads the top of the box-filtered pyramid: the mean
+    // alpha, the share of the texels inside the leaf.
+    const UvFootprint whole{Vec2f(1.0f, 0.0f), Vec2f(0.0f, 1.0f)};
+    EXPECT_NEAR(sampler.opacity(leaf, Vec2f(0.5f, 0.5f), whole), inside, 2e-3);
+    Material masked;
+    masked.opacity_texture = 1;
+    EXPECT_NEAR(sampler.opacity(masked, Vec2f(0.3f, 0.6f)), 128.0f / 255.0f, 1e-3f);
+    EXPECT_FLOAT_EQ(sampler.opacity(Material{}, Vec2f(0.3f, 0.6f)), 1.0f) << "no cut-out";
+    // The same file as colour: its RGB, linearised, alpha ignored.
+    const Rgb colour = sampler.lookup(2, Vec2f(0.5f, 0.5f));
+    EXPECT_NEAR(colour[1], srgb_to_linear(160.0f / 255.0f), 1e-3f);
 }
 
 TEST(TextureSampler, UnreadableTextureIsRefusedWithItsName) {
