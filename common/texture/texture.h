@@ -129,9 +129,8 @@ class TextureSampler {
         if (material.texture < 0) {
             return material.diffuse;
         }
-        const auto linear = material.uv_transform.linear();
-        const UvFootprint mapped{linear * footprint.duv_dx, linear * footprint.duv_dy};
-        return material.diffuse * lookup(material.texture, material.uv_transform * uv, mapped);
+        return material.diffuse *
+               lookup(material.texture, material.uv_transform * uv, mapped(material, footprint));
     }
 
     /// Opacity of `material`'s cut-out at mesh coordinates `uv`: 1 without one, else its
@@ -149,12 +148,19 @@ class TextureSampler {
         if (!material.cut_out()) {
             return 1.0f;
         }
-        const auto linear = material.uv_transform.linear();
-        const UvFootprint mapped{linear * footprint.duv_dx, linear * footprint.duv_dy};
-        return lookup(material.opacity_texture, material.uv_transform * uv, mapped).x();
+        return lookup(material.opacity_texture, material.uv_transform * uv,
+                      mapped(material, footprint))
+            .x();
     }
 
   private:
+    /// A footprint in mesh uv space mapped into `material`'s texture space: the uv transform's
+    /// linear part maps the derivatives.
+    static UvFootprint mapped(const Material& material, const UvFootprint& footprint) {
+        const auto linear = material.uv_transform.linear();
+        return {linear * footprint.duv_dx, linear * footprint.duv_dy};
+    }
+
     struct Impl;
     std::unique_ptr<Impl> m_impl;
     TextureFilter m_filter;

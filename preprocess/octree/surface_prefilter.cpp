@@ -217,17 +217,11 @@ std::vector<OctreePoint> prefilter_points(const OctreeNode& node, int grid,
                 roughness += w * s.roughness;
                 ior += w * s.ior;
                 emission += w * s.emission.matrix().cast<double>();
-                if (s.opacity < 1.0f) {
-                    cut = true;
-                    const double ws = w * s.opacity;
-                    standing += ws;
-                    standing_diffuse += ws * s.diffuse.matrix().cast<double>();
-                    standing_emission += ws * s.emission.matrix().cast<double>();
-                } else {
-                    standing += w;
-                    standing_diffuse += w * s.diffuse.matrix().cast<double>();
-                    standing_emission += w * s.emission.matrix().cast<double>();
-                }
+                cut = cut || s.opacity < 1.0f;
+                const double ws = w * s.opacity;
+                standing += ws;
+                standing_diffuse += ws * s.diffuse.matrix().cast<double>();
+                standing_emission += ws * s.emission.matrix().cast<double>();
             }
         });
         if (!(weight_sum > 0.0)) {

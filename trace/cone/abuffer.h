@@ -631,7 +631,7 @@ class ABuffer {
                            const Contribution& attributes, CoverageMask mask) {
         f.sums.add(attributes, weight);
         f.weight += weight;
-        f.opaque_weight += opacity == 1.0f ? weight : weight * opacity;
+        f.opaque_weight += weight * opacity;  // exactly `weight` for a solid surface
         f.weighted_depth += weight * t;
         f.mask |= mask;
     }

@@ -236,6 +236,25 @@ TEST(PointOctree, UniformMaterialIsExactAtEveryLevelAndFlatSurfacesAreCovered) {
     EXPECT_GT(interior, 100u);
 }
 
+/// The area of triangle t of `mesh`, in double.
+double area_of(const Mesh& mesh, std::uint32_t t) {
+    const auto& tri = mesh.triangles[t];
+    const Vec3d a = mesh.positions[tri[0]].cast<double>();
+    return 0.5 * (mesh.positions[tri[1]].cast<double>() - a)
+                     .cross(mesh.positions[tri[2]].cast<double>() - a)
+                     .norm();
+}
+
+/// Σ `of(t)` over the triangles node n's points stand for.
+template <class F>
+double sum_over_represented(const PointOctree& octree, std::size_t n, const F& of) {
+    double sum = 0.0;
+    for (const std::uint32_t t : represented_triangles(octree, n)) {
+        sum += of(t);
+    }
+    return sum;
+}
+
 /// Σ coverage·voxel² over a node's points against the area of the triangles they stand for
 /// (computed in double from the mesh), node by node; returns the worst relative difference.
 double worst_area_mismatch(const Mesh& mesh, const PointOctree& octree) {
@@ -245,14 +264,8 @@ double worst_area_mismatch(const Mesh& mesh, const PointOctree& octree) {
         if (node.points.empty()) {
             continue;
         }
-        double area = 0.0;
-        for (const std::uint32_t t : represented_triangles(octree, n)) {
-            const auto& tri = mesh.triangles[t];
-            const Vec3d a = mesh.positions[tri[0]].cast<double>();
-            area += 0.5 * (mesh.positions[tri[1]].cast<double>() - a)
-                              .cross(mesh.positions[tri[2]].cast<double>() - a)
-                              .norm();
-        }
+        const double area =
+            sum_over_represented(octree, n, [&](std::uint32_t t) { return area_of(mesh, t); });
         const double voxel = node.side / static_cast<double>(octree.options.grid);
         double covered = 0.0;
         for (const OctreePoint& p : node.points) {
@@ -345,7 +358,7 @@ TEST(PointOctree, ACutOutsPointsCoverWhatStandsOfItAtEveryLevel) {
                 ++count;
             }
         }
-        standing[t] = 0.5 / (32.0 * 32.0) * sum / count;
+        standing[t] = area_of(card, static_cast<std::uint32_t>(t)) * sum / count;
     }
     double total = 0.0;
     for (const double a : standing) {
@@ -359,12 +372,10 @@ TEST(PointOctree, ACutOutsPointsCoverWhatStandsOfItAtEveryLevel) {
         if (node.points.empty()) {
             continue;
         }
-        double area = 0.0;
-        double whole = 0.0;
-        for (const std::uint32_t t : represented_triangles(octree, n)) {
-            area += standing[t];
-            whole += 0.5 / (32.0 * 32.0);
-        }
+        const double area =
+            sum_over_represented(octree, n, [&](std::uint32_t t) { return standing[t]; });
+        const double whole =
+            sum_over_represented(octree, n, [&](std::uint32_t t) { return area_of(card, t); });
         const double voxel = node.side / static_cast<double>(octree.options.grid);
         double covered = 0.0;
         double stands = 0.0;

@@ -114,16 +114,28 @@ TEST_F(Cutouts, TheHolesFollowTheCardThroughItsInstanceTransform) {
 }
 
 TEST_F(Cutouts, AMeshWithoutTextureCoordinatesOrCutOutMaterialHasNone) {
+    // The leaf material on a mesh without texture coordinates, and a card without it: neither
+    // has holes, and a ray through either's would-be hole hits it.
+    testing::write_file(m_scratch.path() / "bare.obj", "v -1 0 -1\nv -1 0 1\nv 1 0 1\nf 1 2 3\n");
     testing::write_file(m_scratch.path() / "plain.json", R"({
       "camera": {"eye": [0, 5, 0.01], "look_at": [0, 0, 0], "fov": 30, "resolution": [8, 8]},
       "materials": {"leaf": {"opacity_texture": {"file": "leaf.png"}}, "plain": {}},
-      "objects": [{"shape": "sphere", "radius": 0.5, "material": "plain"},
-                  {"shape": "quad", "size": [1, 1], "material": "plain"}]
+      "objects": [{"shape": "mesh", "file": "bare.obj", "material": "leaf"},
+                  {"shape": "quad", "size": [1, 1], "material": "plain",
+                   "transform": {"translate": [0, -1, 0]}}]
     })");
     const Scene scene = load_scene(m_scratch.path() / "plain.json");
+    ASSERT_TRUE(scene.materials[scene.meshes[0].materials[0]].cut_out());
+    ASSERT_FALSE(scene.meshes[0].has_uvs());
     const TextureSampler textures(scene);
     const SceneCutouts cutouts(scene, textures);
-    EXPECT_TRUE(cutouts.empty()) << "no mesh uses the cut-out material";
+    EXPECT_TRUE(cutouts.empty());
+    // (-0.45, -0.45) lies in the leaf texture's transparent corner for any uv it could have.
+    const SceneBvh bvh(scene);
+    SceneHit hit;
+    ASSERT_TRUE(bvh.intersect(Ray{Vec3f(-0.45f, 1.0f, 0.45f), Vec3f(0.0f, -1.0f, 0.0f), kInfinity},
+                              hit, &cutouts));
+    EXPECT_NEAR(hit.t, 1.0f, 1e-5f) << "the bare triangle, not the card below it";
 }
 
 }  // namespace
